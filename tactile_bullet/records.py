@@ -1,0 +1,234 @@
+"""Plain data: object pose, controller settings and the GraspRecord a grasp produces.
+
+Frozen dataclasses holding numpy arrays; behaviour lives in functions elsewhere. A record
+round-trips through ``.npz`` without pickle (metadata as a JSON string), so loading a record
+never runs code from the file.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from collections.abc import Mapping
+from dataclasses import asdict, dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from .errors import UsageError
+from .hand import FCI_JOINTS, FINGERS, JOINT_NAMES, LONG_FINGERS
+
+RECORD_FORMAT = 1
+
+
+@dataclass(frozen=True)
+class Pose:
+    """Where the object sits relative to the grasp centre.
+
+    ``offset`` (m) is (x along O-O', y along the palm normal, positive toward the palm,
+    z along the fingers) in the palm frame; ``rotation`` (rad) turns the object about the palm
+    normal (the palm's y axis), the thesis' alpha.
+    """
+
+    offset: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    rotation: float = 0.0
+
+    def __post_init__(self) -> None:
+        off = tuple(float(v) for v in self.offset)
+        if len(off) != 3 or not all(math.isfinite(v) for v in off):
+            raise UsageError(f"offset must be three finite numbers in metres, got {self.offset}")
+        if not math.isfinite(float(self.rotation)):
+            raise UsageError(f"rotation must be finite, got {self.rotation}")
+        object.__setattr__(self, "offset", off)
+        object.__setattr__(self, "rotation", float(self.rotation))
+
+
+@dataclass(frozen=True)
+class ControllerSettings:
+    """Algorithm 1 parameters.
+
+    mode: "torque" stops a joint when the effort on it or a joint downstream exceeds
+    ``thres_t``; "contact" when a phalanx at or downstream of it touches the object.
+    delta: joint-target increment per control tick (rad); with ``control_every`` physics
+    steps of ``timestep`` per tick this sets the closing speed (default 2.4 rad/s at 240 Hz,
+    the Shadow hand's own velocity limit is 2 rad/s for J0 and 2 for J3).
+    """
+
+    mode: str = "torque"
+    delta: float = 0.01
+    thres_t: float = 0.12
+    max_time: float = 4.0
+    timestep: float = 1.0 / 240.0
+    control_every: int = 1
+    sample_rate: float = 60.0
+    motor_force: float = 1.0
+    settle_steps: int = 10
+
+    def __post_init__(self) -> None:
+        if self.mode not in ("torque", "contact"):
+            raise UsageError(f"mode must be 'torque' or 'contact', got {self.mode!r}")
+        for name in ("delta", "thres_t", "max_time", "timestep", "sample_rate", "motor_force"):
+            value = getattr(self, name)
+            if not (isinstance(value, int | float) and math.isfinite(value) and value > 0):
+                raise UsageError(f"controller {name} must be a positive number, got {value!r}")
+        if self.delta > 0.2:
+            raise UsageError(f"controller delta {self.delta} rad per tick is too large (max 0.2)")
+        if int(self.control_every) < 1 or int(self.settle_steps) < 0:
+            raise UsageError("control_every must be >= 1 and settle_steps >= 0")
+
+
+@dataclass(frozen=True, eq=False)
+class GraspRecord:
+    """Everything one grasp produced.
+
+    Time series are sampled at ``controller.sample_rate``; columns follow ``joint_names``.
+    Contacts are those present at the end of the grasp, in the palm frame: position on the
+    object, the object's outward normal there, and the normal force (N). ``contact_link`` holds
+    the hand link name of each contact. Units: s, rad, N m, m, N.
+    """
+
+    shape: str
+    params: Mapping[str, float]
+    pose: Pose
+    controller: ControllerSettings
+    seed: int
+    time: np.ndarray
+    angles: np.ndarray
+    efforts: np.ndarray
+    final_angles: np.ndarray
+    contact_link: np.ndarray
+    contact_position: np.ndarray
+    contact_normal: np.ndarray
+    contact_force: np.ndarray
+    fingers_in_contact: tuple[str, ...]
+    flags: tuple[str, ...] = ()
+    steps: int = 0
+    joint_names: tuple[str, ...] = field(default=JOINT_NAMES)
+
+    @property
+    def sim_time_s(self) -> float:
+        return self.steps * self.controller.timestep
+
+    def joint_index(self, name: str) -> int:
+        try:
+            return self.joint_names.index(name)
+        except ValueError:
+            raise UsageError(f"record has no joint {name!r}") from None
+
+    def final(self, name: str) -> float:
+        """Final angle of one joint (rad)."""
+        return float(self.final_angles[self.joint_index(name)])
+
+    def final_dict(self) -> dict[str, float]:
+        return {n: float(v) for n, v in zip(self.joint_names, self.final_angles, strict=True)}
+
+    def fci_angles(self) -> np.ndarray:
+        """Final (3, 4) joint angles for the FCI: rows J3, J2, J1; columns ff, mf, rf, lf."""
+        idx = [[self.joint_index(FCI_JOINTS[f][row]) for f in LONG_FINGERS] for row in range(3)]
+        return self.final_angles[np.array(idx)]
+
+    def fci_series(self) -> np.ndarray:
+        """(T, 3, 4) FCI angles over time: the input of the temporal image G."""
+        idx = [[self.joint_index(FCI_JOINTS[f][row]) for f in LONG_FINGERS] for row in range(3)]
+        return self.angles[:, np.array(idx)]
+
+    def finger_contacts(self, finger: str) -> np.ndarray:
+        """Boolean mask of the contacts on one finger's links."""
+        from .hand import FINGER_LINKS
+
+        return np.isin(self.contact_link, FINGER_LINKS[finger])
+
+    def metadata(self) -> dict:
+        return {
+            "format": RECORD_FORMAT,
+            "shape": self.shape,
+            "params": dict(self.params),
+            "pose": asdict(self.pose),
+            "controller": asdict(self.controller),
+            "seed": int(self.seed),
+            "fingers_in_contact": list(self.fingers_in_contact),
+            "flags": list(self.flags),
+            "steps": int(self.steps),
+            "joint_names": list(self.joint_names),
+        }
+
+    def arrays(self) -> dict[str, np.ndarray]:
+        return {
+            "time": self.time,
+            "angles": self.angles,
+            "efforts": self.efforts,
+            "final_angles": self.final_angles,
+            "contact_link": np.asarray(self.contact_link, dtype="U16"),
+            "contact_position": self.contact_position,
+            "contact_normal": self.contact_normal,
+            "contact_force": self.contact_force,
+        }
+
+    def equals(self, other: GraspRecord) -> bool:
+        """Bit-identical content (metadata and every array)."""
+        if self.metadata() != other.metadata():
+            return False
+        a, b = self.arrays(), other.arrays()
+        return all(np.array_equal(a[k], b[k]) for k in a)
+
+
+def record_from_parts(meta: Mapping, arrays: Mapping[str, np.ndarray]) -> GraspRecord:
+    """Rebuild a record from ``metadata()`` and ``arrays()`` (as saved), validating both."""
+    try:
+        if int(meta["format"]) != RECORD_FORMAT:
+            raise UsageError(f"record format {meta['format']} is not supported")
+        pose = Pose(tuple(meta["pose"]["offset"]), meta["pose"]["rotation"])
+        controller = ControllerSettings(**meta["controller"])
+        return GraspRecord(
+            shape=str(meta["shape"]),
+            params={k: float(v) for k, v in meta["params"].items()},
+            pose=pose,
+            controller=controller,
+            seed=int(meta["seed"]),
+            time=np.asarray(arrays["time"], float),
+            angles=np.asarray(arrays["angles"], float),
+            efforts=np.asarray(arrays["efforts"], float),
+            final_angles=np.asarray(arrays["final_angles"], float),
+            contact_link=np.asarray(arrays["contact_link"]).astype(str),
+            contact_position=np.asarray(arrays["contact_position"], float).reshape(-1, 3),
+            contact_normal=np.asarray(arrays["contact_normal"], float).reshape(-1, 3),
+            contact_force=np.asarray(arrays["contact_force"], float),
+            fingers_in_contact=tuple(f for f in meta["fingers_in_contact"] if f in FINGERS),
+            flags=tuple(meta["flags"]),
+            steps=int(meta["steps"]),
+            joint_names=tuple(meta["joint_names"]),
+        )
+    except UsageError:
+        raise
+    except (KeyError, TypeError, ValueError) as exc:
+        raise UsageError(f"not a valid grasp record ({type(exc).__name__}: {exc})") from None
+
+
+def save_record(record: GraspRecord, path: str | Path) -> Path:
+    """Write a record as ``.npz`` atomically (temporary file then rename)."""
+    path = Path(path)
+    tmp = path.with_name(path.name + ".tmp")
+    try:
+        with open(tmp, "wb") as fh:
+            np.savez_compressed(
+                fh, meta=np.array(json.dumps(record.metadata())), **record.arrays()
+            )
+        tmp.replace(path)
+    except OSError as exc:
+        tmp.unlink(missing_ok=True)
+        raise UsageError(f"cannot write record to {path}: {exc.strerror or exc}") from None
+    return path
+
+
+def load_record(path: str | Path) -> GraspRecord:
+    """Read a record written by :func:`save_record` (never unpickles)."""
+    path = Path(path)
+    try:
+        with np.load(path, allow_pickle=False) as data:
+            meta = json.loads(str(data["meta"]))
+            arrays = {k: data[k] for k in data.files if k != "meta"}
+    except FileNotFoundError:
+        raise UsageError(f"record file {path} does not exist") from None
+    except (OSError, ValueError, KeyError) as exc:
+        raise UsageError(f"{path} is not a readable grasp record ({exc})") from None
+    return record_from_parts(meta, arrays)

@@ -210,9 +210,7 @@ def save_record(record: GraspRecord, path: str | Path) -> Path:
     tmp = path.with_name(path.name + ".tmp")
     try:
         with open(tmp, "wb") as fh:
-            np.savez_compressed(
-                fh, meta=np.array(json.dumps(record.metadata())), **record.arrays()
-            )
+            np.savez_compressed(fh, meta=np.array(json.dumps(record.metadata())), **record.arrays())
         tmp.replace(path)
     except OSError as exc:
         tmp.unlink(missing_ok=True)

@@ -3,14 +3,18 @@ purpose: the test must not read them from the generator it checks)."""
 
 from __future__ import annotations
 
+import io
 import math
+import re
 import subprocess
 import sys
+import xml.etree.ElementTree as ET
 from pathlib import Path
 
 import numpy as np
 import pybullet as p
 import pytest
+import yourdfpy  # test-only dependency: strict URDF parsing
 
 REPO = Path(__file__).resolve().parent.parent
 URDF = REPO / "urdf" / "shadow_hand.urdf"
@@ -185,3 +189,67 @@ def test_generator_reproduces_committed_file(tmp_path):
         capture_output=True,
     )
     assert out.read_text() == URDF.read_text()
+
+
+# --- strict parsing -------------------------------------------------------------------------
+# yourdfpy's parser knows only URDF's four geometries and raises on anything else; PyBullet's
+# <capsule radius length> is the one extension this file is allowed. The strict check below
+# verifies each capsule on its own (exactly radius and length, both > 0, inside <geometry>),
+# swaps it for a <cylinder> with the same attributes (same schema as a cylinder) and hands the
+# result to yourdfpy, whose strict validation handler fails on any error.
+
+
+def strict_parse(text: str):
+    root = ET.fromstring(text)
+    for geometry in root.iter("geometry"):
+        children = list(geometry)
+        assert len(children) == 1, "a <geometry> must hold exactly one shape"
+        shape = children[0]
+        assert shape.tag in ("box", "cylinder", "sphere", "mesh", "capsule"), shape.tag
+        if shape.tag == "capsule":
+            assert set(shape.attrib) == {"radius", "length"}, shape.attrib
+            assert float(shape.attrib["radius"]) > 0 and float(shape.attrib["length"]) > 0
+    # One tree: unique names, every joint joins known links, every link but the root is the
+    # child of exactly one joint (yourdfpy does not check these).
+    links = [link.get("name") for link in root.iter("link")]
+    joints = list(root.iter("joint"))
+    assert len(set(links)) == len(links)
+    assert len({j.get("name") for j in joints}) == len(joints)
+    children = [j.find("child").get("link") for j in joints]
+    assert all(j.find("parent").get("link") in links for j in joints)
+    assert sorted(children) == sorted(set(children)) and set(children) <= set(links)
+    assert len(set(links) - set(children)) == 1, "exactly one root link"
+    standard = re.sub(r"<capsule\b", "<cylinder", text)
+    model = yourdfpy.URDF.load(io.StringIO(standard), build_scene_graph=False, load_meshes=False)
+    assert model.validate(), model._errors
+    return yourdfpy.URDF.load(io.StringIO(standard), build_scene_graph=True, load_meshes=False)
+
+
+def test_strict_parser_accepts_file():
+    text = URDF.read_text()
+    assert "<capsule" in text  # the extension is really used (and really checked above)
+    with pytest.raises(ValueError, match="capsule"):
+        yourdfpy.URDF.load(io.StringIO(text), load_meshes=False)
+    model = strict_parse(text)
+    assert model.base_link == "forearm"
+    assert sorted(model.actuated_joint_names) == sorted(SHEET_LIMITS_DEG)
+    # Forward kinematics by an independent implementation.
+    for tip, expected in SHEET_TIPS.items():
+        got = model.get_transform(tip, "palm")[:3, 3]
+        assert np.linalg.norm(got - expected) < 1e-3, (tip, got)
+
+
+@pytest.mark.parametrize(
+    "old, new",
+    [
+        (' effort="2" velocity="2"/>', ' velocity="2"/>'),  # a limit without effort
+        ('<joint name="FFJ2" type="revolute">', '<joint name="FFJ2" type="hinge">'),
+        ('<capsule radius="0.009"', '<capsule radius="0.009" fromto="0 0 0 0 0 1"'),
+        ('<child link="fftip"/>', '<child link="ffdistal"/>'),  # a link with two parents
+    ],
+)
+def test_strict_parser_rejects_broken_file(old, new):
+    text = URDF.read_text()
+    assert old in text
+    with pytest.raises(AssertionError):
+        strict_parse(text.replace(old, new, 1))

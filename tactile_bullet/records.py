@@ -50,13 +50,14 @@ class ControllerSettings:
     mode: "torque" stops a joint when the effort on it or a joint downstream exceeds
     ``thres_t``; "contact" when a phalanx at or downstream of it touches the object.
     delta: joint-target increment per control tick (rad); with ``control_every`` physics
-    steps of ``timestep`` per tick this sets the closing speed (default 2.4 rad/s at 240 Hz,
-    the Shadow hand's own velocity limit is 2 rad/s for J0 and 2 for J3).
+    steps of ``timestep`` per tick this sets the closing speed (default 1.44 rad/s at 240 Hz,
+    under the Shadow hand's 2 rad/s; at 0.015 rad per tick the contacts turn unstable).
+    thres_t: N m on the damping-compensated, low-passed joint effort (grasp.py).
     """
 
     mode: str = "torque"
-    delta: float = 0.01
-    thres_t: float = 0.12
+    delta: float = 0.006
+    thres_t: float = 0.35
     max_time: float = 4.0
     timestep: float = 1.0 / 240.0
     control_every: int = 1

@@ -1,0 +1,295 @@
+"""One PyBullet world: the Shadow hand fixed at the wrist and a static object in front of it.
+
+Every Scene owns its own client (DIRECT unless asked for the GUI), so scenes can run in parallel
+processes and a fresh scene per grasp keeps records bit-identical. The palm frame of the kinematics
+sheet is the world frame: the forearm base is placed so that, at zero wrist angles, the palm link
+sits at the origin.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import os
+import sys
+from collections.abc import Iterator, Mapping, Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from .errors import UsageError
+from .hand import FINGER_LINKS, JOINT_NAMES, PALM_HALF_THICKNESS, urdf_path
+from .records import Pose
+from .shapes import Shape
+
+FOREARM_TO_PALM = np.array([0.0, -0.010, 0.247])
+"""Palm origin in the forearm frame at zero wrist angles (sheet: WRJ2 then WRJ1 origins)."""
+
+STANDOFF = 0.005
+"""Gap (m) between the palm's grip surface and the nearest point of the object at zero offset."""
+
+GRASP_Z = 0.09
+"""z (m) of the object's axis at zero offset: the sheet's grasp centre height."""
+
+SPAN_X = 0.045
+"""Half-width (m) of the hand along O-O' used to find the object's nearest point to the palm."""
+
+FRICTION = 0.8
+
+SOLVER_ITERATIONS = 50
+"""Bullet's default (the contact solver is tuned for it at 240 Hz)."""
+
+ARMATURE_INERTIA = 1e-5
+"""Floor (kg m^2) on every hand link's principal inertias. The sheet's bare-link values go
+down to 2.6e-7 (knuckles); a real joint also carries its actuator's and tendon's reflected
+inertia, and without it Bullet's multibody solver diverges as soon as two or more fingers press
+on the object at once (measured: J3 swinging +-0.5 rad, contact forces of kN). With the floor
+four fingers settle on a cylinder with forces of ~20 N and no oscillation."""
+
+
+@contextlib.contextmanager
+def quiet_stdout() -> Iterator[None]:
+    """Silence C-level writes to stdout (PyBullet prints its build time on import and every
+    merged link while loading), so ``--json`` output stays one clean document."""
+    try:
+        fd = sys.stdout.fileno()
+    except (AttributeError, OSError, ValueError):  # pytest capture, notebooks
+        yield
+        return
+    sys.stdout.flush()
+    saved = os.dup(fd)
+    try:
+        with open(os.devnull, "wb") as null:
+            os.dup2(null.fileno(), fd)
+            yield
+    finally:
+        os.dup2(saved, fd)
+        os.close(saved)
+
+
+def import_pybullet():
+    """pybullet, imported without its banner on stdout."""
+    with quiet_stdout():
+        import pybullet
+
+    return pybullet
+
+
+@dataclass(frozen=True)
+class Placement:
+    """Where the object's frame ends up in the palm frame."""
+
+    position: tuple[float, float, float]
+    orientation: tuple[float, float, float, float]
+
+
+def place_object(shape: Shape, params: Mapping[str, float], pose: Pose) -> Placement:
+    """Object axis at height GRASP_Z, its nearest point STANDOFF in front of the palm, then
+    the pose's offset and its rotation about the palm normal.
+
+    The nominal depth depends on the object's size (a large object sits further out) so that
+    the same offset means the same thing for every size: "this far from the resting place".
+    """
+    p = import_pybullet()
+    quat = p.getQuaternionFromEuler([0.0, pose.rotation, 0.0])
+    rot = np.array(p.getMatrixFromQuaternion(quat)).reshape(3, 3)
+    verts = np.asarray(shape.mesh(**params).vertices) @ rot.T
+    near = verts[np.abs(verts[:, 0]) <= SPAN_X]
+    if len(near) == 0:
+        near = verts
+    top = float(near[:, 1].max())  # how far the object reaches toward +y (the palm)
+    y0 = -PALM_HALF_THICKNESS - STANDOFF - top
+    pos = np.array([0.0, y0, GRASP_Z]) + np.asarray(pose.offset)
+    return Placement(tuple(float(v) for v in pos), tuple(float(v) for v in quat))
+
+
+class Scene:
+    """The hand and one static object in a private PyBullet client."""
+
+    def __init__(
+        self,
+        shape: Shape,
+        params: Mapping[str, float],
+        pose: Pose,
+        *,
+        timestep: float = 1.0 / 240.0,
+        gui: bool = False,
+        visual: bool = False,
+    ) -> None:
+        p = import_pybullet()
+        from pybullet_utils import bullet_client
+
+        if gui:
+            try:
+                self.client = bullet_client.BulletClient(connection_mode=p.GUI)
+            except Exception as exc:  # noqa: BLE001 - a bare pybullet.error without a display
+                raise UsageError(
+                    "--gui needs a display (PyBullet could not open a window)"
+                ) from exc
+            if not self.client.isConnected():
+                raise UsageError("--gui needs a display (PyBullet could not open a window)")
+        else:
+            self.client = bullet_client.BulletClient(connection_mode=p.DIRECT)
+        c = self.client
+        c.setTimeStep(timestep)
+        c.setGravity(0, 0, -9.81)
+        c.setPhysicsEngineParameter(numSolverIterations=SOLVER_ITERATIONS)
+        with quiet_stdout():
+            self.hand = self._load_hand(p)
+        self._index_links(p)
+        self.shape, self.params, self.pose = shape, dict(params), pose
+        self.placement = place_object(shape, params, pose)
+        self.objects = self._add_object(visual)
+
+    def _load_hand(self, p) -> int:
+        return self.client.loadURDF(
+            str(urdf_path()),
+            basePosition=(-FOREARM_TO_PALM).tolist(),
+            useFixedBase=True,
+            # Merging the fixed tip frames into the distal links matters: a 0.1 g tip link
+            # on a fixed joint makes the multibody solver blow up on the first contact.
+            flags=p.URDF_USE_INERTIA_FROM_FILE | p.URDF_MERGE_FIXED_LINKS,
+        )
+
+    def _index_links(self, p) -> None:
+        c = self.client
+        self.joint_index: dict[str, int] = {}
+        self.link_index: dict[str, int] = {}
+        self.link_name: dict[int, str] = {-1: "forearm"}
+        for j in range(c.getNumJoints(self.hand)):
+            info = c.getJointInfo(self.hand, j)
+            link = info[12].decode()
+            self.link_index[link] = j
+            self.link_name[j] = link
+            if info[2] == p.JOINT_REVOLUTE:
+                self.joint_index[info[1].decode()] = j
+                c.enableJointForceTorqueSensor(self.hand, j, True)
+            inertia = c.getDynamicsInfo(self.hand, j)[2]
+            c.changeDynamics(
+                self.hand,
+                j,
+                lateralFriction=FRICTION,
+                localInertiaDiagonal=[max(v, ARMATURE_INERTIA) for v in inertia],
+            )
+        missing = [n for n in JOINT_NAMES if n not in self.joint_index]
+        if missing:
+            raise RuntimeError(f"URDF {urdf_path()} lacks joints {missing}")
+        self.joints = [self.joint_index[n] for n in JOINT_NAMES]
+        self.lower = np.array([c.getJointInfo(self.hand, j)[8] for j in self.joints])
+        self.upper = np.array([c.getJointInfo(self.hand, j)[9] for j in self.joints])
+        self.palm = self.link_index["palm"]
+        self.finger_link_ids = {
+            f: [self.link_index[n] for n in links if n in self.link_index]
+            for f, links in FINGER_LINKS.items()
+        }
+
+    # --- object ---------------------------------------------------------------------------
+
+    def _add_object(self, visual: bool) -> list[int]:
+        c = self.client
+        p = import_pybullet()
+        bodies = []
+        for piece in self.shape.pieces(**self.params):
+            col = c.createCollisionShape(p.GEOM_MESH, vertices=np.asarray(piece).tolist())
+            body = c.createMultiBody(
+                baseMass=0.0,
+                baseCollisionShapeIndex=col,
+                basePosition=self.placement.position,
+                baseOrientation=self.placement.orientation,
+            )
+            c.changeDynamics(body, -1, lateralFriction=FRICTION)
+            bodies.append(body)
+        if visual:
+            mesh = self.shape.mesh(**self.params)
+            vis = c.createVisualShape(
+                p.GEOM_MESH,
+                vertices=np.asarray(mesh.vertices).tolist(),
+                indices=np.asarray(mesh.faces).ravel().tolist(),
+                rgbaColor=[0.25, 0.55, 0.85, 1.0],
+            )
+            c.createMultiBody(
+                baseMass=0.0,
+                baseCollisionShapeIndex=-1,
+                baseVisualShapeIndex=vis,
+                basePosition=self.placement.position,
+                baseOrientation=self.placement.orientation,
+            )
+        return bodies
+
+    # --- hand state -----------------------------------------------------------------------
+
+    def reset_hand(self, angles: Mapping[str, float] | None = None) -> None:
+        """Teleport joints (no dynamics): the open hand (all zero) unless told otherwise."""
+        pose = dict.fromkeys(JOINT_NAMES, 0.0)
+        pose.update(angles or {})
+        for name, value in pose.items():
+            self.client.resetJointState(self.hand, self.joint_index[name], value, 0.0)
+
+    def lock_wrist(self) -> None:
+        """Hold the palm where the arm put it (the thesis' hand was mounted and its wrist took
+        no part in the grasp). The wrist joints get zero-width limits and no motor: a stiff
+        position motor on the wrist instead makes the multibody solver oscillate as soon as
+        two fingers press on the object (measured: J3 swinging +-0.5 rad)."""
+        for name in ("WRJ2", "WRJ1"):
+            self.client.changeDynamics(
+                self.hand, self.joint_index[name], jointLowerLimit=0.0, jointUpperLimit=0.0
+            )
+
+    def penetrations(self, margin: float = 0.0) -> list[tuple[str, float]]:
+        """Hand links that overlap the object deeper than ``margin`` (m), with their depth."""
+        c = self.client
+        c.performCollisionDetection()
+        out = []
+        for body in self.objects:
+            for pt in c.getContactPoints(bodyA=self.hand, bodyB=body):
+                if pt[8] < -margin:
+                    out.append((self.link_name[pt[3]], float(pt[8])))
+        return out
+
+    def contacts(self) -> list[tuple[str, np.ndarray, np.ndarray, float]]:
+        """Current hand-object contacts in the palm frame: (link, position on the object,
+        object's outward normal, normal force)."""
+        c = self.client
+        pos, orn = c.getLinkState(self.hand, self.palm)[4:6]
+        rot = np.array(c.getMatrixFromQuaternion(orn)).reshape(3, 3)
+        origin = np.asarray(pos)
+        out = []
+        for body in self.objects:
+            for pt in c.getContactPoints(bodyA=self.hand, bodyB=body):
+                world_pos = np.asarray(pt[6])
+                normal = np.asarray(pt[7])  # on B (object) toward A (hand): outward normal
+                out.append(
+                    (
+                        self.link_name[pt[3]],
+                        rot.T @ (world_pos - origin),
+                        rot.T @ normal,
+                        float(pt[9]),
+                    )
+                )
+        return out
+
+    def touching_links(self) -> set[int]:
+        """Link indices of the hand currently touching the object (cheap: no frames)."""
+        c = self.client
+        links: set[int] = set()
+        for body in self.objects:
+            for pt in c.getContactPoints(bodyA=self.hand, bodyB=body):
+                links.add(pt[3])
+        return links
+
+    def close(self) -> None:
+        try:
+            self.client.disconnect()
+        except Exception:  # noqa: BLE001 - already gone
+            pass
+
+    def __enter__(self) -> Scene:
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.close()
+
+
+def joint_limits_of(scene: Scene, names: Sequence[str]) -> np.ndarray:
+    """(n, 2) lower/upper limits (rad) of the named joints."""
+    idx = [JOINT_NAMES.index(n) for n in names]
+    return np.column_stack([scene.lower[idx], scene.upper[idx]])

@@ -157,10 +157,12 @@ _Z_TO_X = trimesh.transformations.rotation_matrix(np.pi / 2, [0, 1, 0])
 """+90 deg about y: maps a solid built around z onto O-O' (z -> +x)."""
 
 
-def _revolve(profile_x: np.ndarray, profile_r: np.ndarray) -> trimesh.Trimesh:
+def _revolve(
+    profile_x: np.ndarray, profile_r: np.ndarray, sections: int = SECTIONS
+) -> trimesh.Trimesh:
     """Revolve a closed radius profile (from r=0 to r=0) around O-O' (the x axis)."""
     line = np.column_stack([profile_r, profile_x])
-    mesh = trimesh.creation.revolve(line, sections=SECTIONS)
+    mesh = trimesh.creation.revolve(line, sections=sections)
     # revolve works around z; rotate +90 deg about y so that z becomes +x.
     mesh.apply_transform(_Z_TO_X)
     mesh.fix_normals()
@@ -181,21 +183,24 @@ def _flat_ends(radius_fn, half: float, n: int = 32, **params) -> tuple[np.ndarra
     return np.concatenate([[-half], x, [half]]), np.concatenate([[0.0], r, [0.0]])
 
 
-def cylinder(radius: float = 0.035, length: float = 0.12) -> trimesh.Trimesh:
+def cylinder(
+    radius: float = 0.035, length: float = 0.12, sections: int = SECTIONS
+) -> trimesh.Trimesh:
     """Cylinder of ``radius`` (m) and ``length`` (m) along O-O'."""
-    return _revolve(*_flat_ends(cylinder_radius, length / 2, 2, radius=radius, length=length))
+    x, r = _flat_ends(cylinder_radius, length / 2, 2, radius=radius, length=length)
+    return _revolve(x, r, sections)
 
 
-def cone(radius: float = 0.05, length: float = 0.16) -> trimesh.Trimesh:
+def cone(radius: float = 0.05, length: float = 0.16, sections: int = SECTIONS) -> trimesh.Trimesh:
     """Cone of base ``radius`` (m) at -length/2 and apex at +length/2 (m)."""
     x = np.array([-length / 2, -length / 2, length / 2])
     r = np.array([0.0, radius, 0.0])
-    return _revolve(x, r)
+    return _revolve(x, r, sections)
 
 
-def sphere(radius: float = 0.045) -> trimesh.Trimesh:
+def sphere(radius: float = 0.045, sections: int = SECTIONS) -> trimesh.Trimesh:
     """Sphere of ``radius`` (m)."""
-    return _revolve(*_profile(sphere_radius, radius, 48, radius=radius))
+    return _revolve(*_profile(sphere_radius, radius, sections // 2 + 1, radius=radius), sections)
 
 
 def torus(major_radius: float = 0.048, minor_radius: float = 0.042) -> trimesh.Trimesh:
@@ -216,15 +221,21 @@ def hyperboloid(
     )  # fmt: skip
 
 
-def ovoid(radius: float = 0.04, length: float = 0.13, asymmetry: float = 0.25) -> trimesh.Trimesh:
+def ovoid(
+    radius: float = 0.04, length: float = 0.13, asymmetry: float = 0.25, sections: int = SECTIONS
+) -> trimesh.Trimesh:
     """Egg: ``length`` (m) along O-O', widest ``radius`` (m), blunt end toward +x."""
-    return _revolve(
-        *_profile(ovoid_radius, length / 2, 64, radius=radius, length=length, asymmetry=asymmetry)
+    x, r = _profile(
+        ovoid_radius, length / 2, sections, radius=radius, length=length, asymmetry=asymmetry
     )
+    return _revolve(x, r, sections)
 
 
-def hexagonal_pyramid(radius: float = 0.05, length: float = 0.16) -> trimesh.Trimesh:
-    """Hexagonal pyramid: base circumradius ``radius`` (m) at -length/2, apex at +length/2."""
+def hexagonal_pyramid(
+    radius: float = 0.05, length: float = 0.16, sections: int = 6
+) -> trimesh.Trimesh:
+    """Hexagonal pyramid: base circumradius ``radius`` (m) at -length/2, apex at +length/2.
+    ``sections`` is accepted for a uniform signature; a hexagon has six."""
     angles = np.arange(6) * np.pi / 3 + np.pi / 6
     base = np.column_stack(
         [np.full(6, -length / 2), radius * np.cos(angles), radius * np.sin(angles)]
@@ -236,9 +247,16 @@ def hexagonal_pyramid(radius: float = 0.05, length: float = 0.16) -> trimesh.Tri
 # --- convex pieces for Bullet ---------------------------------------------------------------
 
 
+COLLISION_SECTIONS = 32
+"""Facets around the axis of a convex collision hull: the support-point search Bullet runs per
+contact is linear in vertices, and 32 facets keep the radius within 0.5% (0.2 mm at 45 mm)."""
+
+
 def _single(mesh_fn) -> Callable[..., list[np.ndarray]]:
+    """A convex solid is its own single piece, rebuilt with fewer facets for collision."""
+
     def pieces(**params) -> list[np.ndarray]:
-        return [np.asarray(mesh_fn(**params).vertices)]
+        return [np.asarray(mesh_fn(**params, sections=COLLISION_SECTIONS).vertices)]
 
     return pieces
 

@@ -1,0 +1,178 @@
+"""Theoretical signatures and the training-free nearest-pattern identifier (thesis 2.3.1, 2.5).
+
+Theory: a finger wrapped on a circle of radius r closes by theta = s / r in total (eq. 2.3).
+Its three joints share that angle phalanx by phalanx: a phalanx of length l lying on the
+circle (tangent at its middle, its axis a pad radius away from the surface) spans the central
+angle 2 atan(l / (2 (r + pad))), and the angle between two phalanges on a circle equals the
+central angle of the arc between them (thesis Appendix A), so joint i turns by the central
+angle of phalanx i. The sum tends to s / (r + pad) for small phalanges, eq. 2.3 itself. Each
+finger samples the shape's radius profile r(x) at its own position x on O-O' (hand.FINGER_X);
+a finger beside the object (r = 0) closes to its limits. These angles then go through exactly
+the pipeline of measured ones (``signature.signature_from_angles``).
+
+Identification: dynamic time warping (dtaidistance's C implementation) between each enhanced
+line and the pattern's, summed over both lines; the nearest pattern wins if it lies within the
+correspondence threshold, else "unknown"; between hyperboloid and cylinder the signature's
+bulge (the thesis' integral rule) decides. Both thresholds come from simulated grasps
+(``tools/invariance.py`` writes ``data/identification.json``).
+"""
+
+from __future__ import annotations
+
+import json
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from functools import cache
+from importlib import resources
+
+import numpy as np
+
+from .errors import UsageError
+from .hand import FINGER_X, LONG_FINGERS, PHALANX_LENGTHS
+from .shapes import BUILTIN_SHAPES, THESIS_SHAPES, Shape
+from .signature import Signature, signature_from_angles, signature_of
+
+PAD_RADIUS = 0.009
+"""Distance (m) from a phalanx's axis to its pad: the sheet's phalanx capsule radius."""
+
+JOINT_LIMIT = np.pi / 2
+"""Where a finger that misses the object ends: each of J3, J2, J1 at 90 deg."""
+
+DTW_WINDOW = 0.1
+"""Sakoe-Chiba band as a fraction of the line length: fingers sit at fixed places on O-O', so a
+warp of more than a tenth of the hand would match features no finger could have moved."""
+
+INTEGRAL_PAIR = ("hyperboloid", "cylinder")
+"""The two patterns the integral rule separates (thesis Fig. 2.22)."""
+
+_TABLE = {s.name: s for s in BUILTIN_SHAPES}
+
+
+def _shape(shape: str | Shape) -> Shape:
+    if isinstance(shape, Shape):
+        return shape
+    try:
+        return _TABLE[shape]
+    except KeyError:
+        raise UsageError(f"unknown shape {shape!r} (shapes: {', '.join(_TABLE)})") from None
+
+
+def wrap_angles(radius) -> np.ndarray:
+    """Joint angles (3, n) of fingers wrapped on circles of the given radii (m): rows J3, J2,
+    J1, each the central angle of its phalanx. Radius 0 means no object: joints at 90 deg."""
+    r = np.asarray(radius, dtype=float)
+    if r.ndim != 1 or not np.all(np.isfinite(r)) or np.any(r < 0):
+        raise UsageError("radii must be a 1-D array of finite numbers >= 0 (m)")
+    lengths = np.asarray(PHALANX_LENGTHS)[:, None]
+    theta = 2.0 * np.arctan(lengths / (2.0 * (r[None, :] + PAD_RADIUS)))
+    return np.where(r[None, :] > 0, theta, JOINT_LIMIT)
+
+
+def theoretical_angles(shape: str | Shape, params: Mapping[str, float] | None = None):
+    """(3, 4) joint angles a hand wrapped on ``shape`` would hold, from its radius profile."""
+    spec = _shape(shape)
+    values = spec.resolve(params)
+    x = np.array([FINGER_X[f] for f in LONG_FINGERS])
+    return wrap_angles(spec.radius(x, **values))
+
+
+def pattern(shape: str | Shape, params: Mapping[str, float] | None = None) -> Signature:
+    """Theoretical signature of a shape (default sizes unless given)."""
+    return signature_from_angles(theoretical_angles(shape, params))
+
+
+@cache
+def default_library() -> dict[str, Signature]:
+    """Theoretical signatures of the five thesis shapes at their default sizes."""
+    return {name: pattern(name) for name in THESIS_SHAPES}
+
+
+def dtw_distance(a, b, window: float = DTW_WINDOW) -> float:
+    """DTW distance between two lines (Euclidean DTW, dtaidistance; C path when compiled)."""
+    from dtaidistance import dtw
+
+    x = np.ascontiguousarray(a, dtype=np.double)
+    y = np.ascontiguousarray(b, dtype=np.double)
+    band = max(1, int(round(window * max(x.size, y.size))))
+    # No pruning: with it (the default) dtaidistance 2.5.1 returned inf for ordinary pairs.
+    return float(dtw.distance_fast(x, y, window=band, use_pruning=False))
+
+
+def signature_distance(sig: Signature, ref: Signature, window: float = DTW_WINDOW) -> float:
+    """Distance between two signatures: DTW of the lower lines plus DTW of the upper lines."""
+    return dtw_distance(sig.lower, ref.lower, window) + dtw_distance(sig.upper, ref.upper, window)
+
+
+@dataclass(frozen=True)
+class Thresholds:
+    """Identification thresholds and where they came from."""
+
+    correspondence: float = float("inf")
+    """Largest distance to the nearest pattern that still counts as a match."""
+    integral: float = 0.0
+    """Bulge above which a hyperboloid/cylinder match is a hyperboloid."""
+    source: str = "defaults"
+
+
+@cache
+def load_thresholds() -> Thresholds:
+    """Thresholds measured by ``tools/invariance.py`` (package data), or the defaults."""
+    try:
+        text = resources.files("tactile_bullet").joinpath("data/identification.json").read_text()
+    except (FileNotFoundError, OSError):
+        return Thresholds()
+    doc = json.loads(text)
+    return Thresholds(
+        correspondence=float(doc["correspondence_threshold"]),
+        integral=float(doc["integral_threshold"]),
+        source="data/identification.json",
+    )
+
+
+@dataclass(frozen=True)
+class Identification:
+    """Outcome of :func:`identify`: the decided name, the nearest pattern and every distance."""
+
+    name: str
+    nearest: str
+    distances: dict[str, float] = field(default_factory=dict)
+    bulge: float = 0.0
+    integral_rule: bool = False
+    """True when the integral rule chose between hyperboloid and cylinder."""
+
+
+def identify(
+    signature: Signature,
+    library: Mapping[str, Signature] | None = None,
+    thresholds: Thresholds | None = None,
+) -> Identification:
+    """Nearest theoretical pattern by DTW, "unknown" beyond the correspondence threshold."""
+    lib = default_library() if library is None else library
+    if not lib:
+        raise UsageError("the pattern library is empty")
+    th = load_thresholds() if thresholds is None else thresholds
+    distances = {name: signature_distance(signature, ref) for name, ref in lib.items()}
+    nearest = min(distances, key=distances.__getitem__)
+    name, ruled = nearest, False
+    if nearest in INTEGRAL_PAIR and all(n in lib for n in INTEGRAL_PAIR):
+        name = INTEGRAL_PAIR[0] if signature.bulge > th.integral else INTEGRAL_PAIR[1]
+        ruled = True
+    if distances[nearest] > th.correspondence:
+        name = "unknown"
+    return Identification(name, nearest, distances, signature.bulge, ruled)
+
+
+def signature_summary(record) -> dict:
+    """The ``signature`` block of ``grasp --json`` (DESIGN section 5) for one record."""
+    from .rotation import alpha_of, estimate_rotation_deg, load_calibration
+
+    sig = signature_of(record)
+    ident = identify(sig)
+    cal = load_calibration()
+    alpha = alpha_of(sig, cal.line if cal is not None else "mean")
+    return {
+        "alpha_deg": alpha,
+        "rotation_estimate_deg": estimate_rotation_deg(alpha, cal),
+        "nearest_pattern": ident.name,
+        "distances": ident.distances,
+    }

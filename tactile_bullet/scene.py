@@ -60,16 +60,29 @@ def quiet_stdout() -> Iterator[None]:
     try:
         with open(os.devnull, "wb") as null:
             os.dup2(null.fileno(), fd)
-            yield
+            try:
+                yield
+            finally:
+                _flush_c_stdout()  # C's buffered printf output goes to /dev/null, not later
     finally:
         os.dup2(saved, fd)
         os.close(saved)
+
+
+def _flush_c_stdout() -> None:
+    import ctypes
+
+    try:
+        ctypes.CDLL(None).fflush(None)
+    except (OSError, AttributeError):
+        pass
 
 
 def import_pybullet():
     """pybullet, imported without its banner on stdout."""
     with quiet_stdout():
         import pybullet
+        import pybullet_utils.bullet_client  # noqa: F401
 
     return pybullet
 
@@ -118,17 +131,8 @@ class Scene:
         p = import_pybullet()
         from pybullet_utils import bullet_client
 
-        if gui:
-            try:
-                self.client = bullet_client.BulletClient(connection_mode=p.GUI)
-            except Exception as exc:  # noqa: BLE001 - a bare pybullet.error without a display
-                raise UsageError(
-                    "--gui needs a display (PyBullet could not open a window)"
-                ) from exc
-            if not self.client.isConnected():
-                raise UsageError("--gui needs a display (PyBullet could not open a window)")
-        else:
-            self.client = bullet_client.BulletClient(connection_mode=p.DIRECT)
+        with quiet_stdout():
+            self._connect(p, bullet_client, gui)
         c = self.client
         c.setTimeStep(timestep)
         c.setGravity(0, 0, -9.81)
@@ -139,6 +143,20 @@ class Scene:
         self.shape, self.params, self.pose = shape, dict(params), pose
         self.placement = place_object(shape, params, pose)
         self.objects = self._add_object(visual)
+
+    def _connect(self, p, bullet_client, gui: bool) -> None:
+        if not gui:
+            self.client = bullet_client.BulletClient(connection_mode=p.DIRECT)
+            return
+        no_window = UsageError("--gui needs a display (PyBullet could not open a window)")
+        if not os.environ.get("DISPLAY") and sys.platform.startswith("linux"):
+            raise no_window
+        try:
+            self.client = bullet_client.BulletClient(connection_mode=p.GUI)
+        except Exception as exc:  # noqa: BLE001 - a bare pybullet.error without a display
+            raise no_window from exc
+        if not self.client.isConnected():
+            raise no_window
 
     def _load_hand(self, p) -> int:
         return self.client.loadURDF(

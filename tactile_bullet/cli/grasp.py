@@ -1,0 +1,154 @@
+"""``tactile-bullet grasp``: one enclosure grasp, its summary, record, snapshot and plot."""
+
+from __future__ import annotations
+
+import argparse
+import math
+
+from ..errors import UsageError
+from .common import (
+    emit_json,
+    parse_key_values,
+    parse_number,
+    parse_vector,
+    writable_file,
+)
+
+
+def add_parser(sub) -> None:
+    parser = sub.add_parser(
+        "grasp",
+        help="simulate one enclosure grasp (thesis Algorithm 1) on a shape",
+        description="Simulate one enclosure grasp of the Shadow hand on a static object.",
+    )
+    parser.add_argument("--shape", required=True, help="shape name (see `tactile-bullet shapes`)")
+    parser.add_argument(
+        "--param", action="append", metavar="KEY=VALUE", help="shape size in metres (repeatable)"
+    )
+    parser.add_argument(
+        "--offset", default="0,0,0", metavar="X,Y,Z",
+        help="object offset from its resting place in metres, palm frame: x along O-O', "
+        "y along the palm normal (positive toward the palm), z along the fingers",
+    )  # fmt: skip
+    parser.add_argument(
+        "--rotation", default="0", metavar="DEG", help="object rotation about the palm normal"
+    )
+    parser.add_argument("--mode", choices=("torque", "contact"), default="torque")
+    parser.add_argument("--delta", type=float, help="joint step per control tick (rad)")
+    parser.add_argument("--thres", type=float, help="torque threshold thresT (N m)")
+    parser.add_argument("--max-time", type=float, help="simulated time limit (s)")
+    parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--out", help="write the GraspRecord to this .npz file")
+    parser.add_argument("--snapshot", help="render the grasp to this PNG (CPU renderer)")
+    parser.add_argument("--plot", help="draw FCI and signatures of the grasp to this PNG")
+    parser.add_argument("--gui", action="store_true", help="show PyBullet's window")
+    parser.add_argument("--json", action="store_true", help="print one JSON document")
+    parser.set_defaults(run=run)
+
+
+def _controller(args):
+    from ..records import ControllerSettings
+
+    overrides = {"mode": args.mode}
+    for key, value in (("delta", args.delta), ("thres_t", args.thres), ("max_time", args.max_time)):
+        if value is not None:
+            overrides[key] = value
+    return ControllerSettings(**overrides)
+
+
+def run(args: argparse.Namespace) -> int:
+    from ..records import Pose
+
+    params = {k: parse_number(v, f"--param {k}") for k, v in parse_key_values(args.param).items()}
+    offset = parse_vector(args.offset, 3, "--offset")
+    rotation = math.radians(parse_number(args.rotation, "--rotation"))
+    if abs(rotation) > math.radians(90):
+        raise UsageError(f"--rotation {args.rotation} is out of range [-90, 90] degrees")
+    pose = Pose(offset, rotation)
+    controller = _controller(args)
+    outputs = {}
+    for flag in ("out", "snapshot", "plot"):
+        if getattr(args, flag):
+            outputs[flag] = writable_file(getattr(args, flag), f"--{flag}")
+
+    from ..grasp import resolve_shape, timed_grasp
+
+    shape = resolve_shape(args.shape)
+    hook = None
+    if "snapshot" in outputs:
+        from ..render import snapshot
+
+        def hook(scene):
+            snapshot(scene, outputs["snapshot"])
+
+    record, wall = timed_grasp(
+        shape, params, pose, controller, args.seed, gui=args.gui, scene_hook=hook
+    )
+    if "out" in outputs:
+        from ..records import save_record
+
+        save_record(record, outputs["out"])
+    signature = _signature_block(record)
+    if "plot" in outputs:
+        from ..figures_signature import plot_grasp_signature
+
+        plot_grasp_signature(record, outputs["plot"])
+    doc = {
+        "shape": record.shape,
+        "params": dict(record.params),
+        "pose": {"offset": list(pose.offset), "rotation_deg": math.degrees(pose.rotation)},
+        "mode": controller.mode,
+        "fingers_in_contact": list(record.fingers_in_contact),
+        "joint_angles": record.final_dict(),
+        "sim_time_s": record.sim_time_s,
+        "wall_time_s": wall,
+        "steps": record.steps,
+        "flags": list(record.flags),
+        "signature": signature,
+        "outputs": {k: str(v) for k, v in outputs.items()},
+    }
+    if args.json:
+        emit_json(doc)
+    else:
+        _print_summary(doc)
+    return 0
+
+
+def _signature_block(record) -> dict | None:
+    """The DESIGN `signature` block, or None where the grasp gives no signature."""
+    try:
+        from ..patterns import signature_summary
+    except ImportError:
+        return None
+    try:
+        return signature_summary(record)
+    except UsageError:
+        return None
+
+
+def _print_summary(doc: dict) -> None:
+    from ..hand import FINGERS
+
+    params = ", ".join(f"{k}={v:g} m" for k, v in doc["params"].items())
+    print(f"{doc['shape']} ({params}), offset {doc['pose']['offset']} m, "
+          f"rotation {doc['pose']['rotation_deg']:g} deg, {doc['mode']} mode")  # fmt: skip
+    print("final joint angles (deg):")
+    angles = doc["joint_angles"]
+    for finger in FINGERS:
+        names = [n for n in angles if n.lower().startswith(finger)]
+        row = "  ".join(f"{n}={math.degrees(angles[n]):6.1f}" for n in names)
+        print(f"  {finger}: {row}")
+    touching = ", ".join(doc["fingers_in_contact"]) or "none"
+    print(f"fingers in contact: {touching}")
+    print(f"simulated {doc['sim_time_s']:.3f} s in {doc['steps']} steps, "
+          f"wall time {doc['wall_time_s']:.3f} s")  # fmt: skip
+    if doc["flags"]:
+        print(f"flags: {', '.join(doc['flags'])}")
+    sig = doc["signature"]
+    if sig:
+        est = sig.get("rotation_estimate_deg")
+        est_text = "n/a" if est is None else f"{est:.1f} deg"
+        print(f"signature: alpha {sig['alpha_deg']:.1f} deg, rotation estimate {est_text}, "
+              f"nearest pattern {sig['nearest_pattern']}")  # fmt: skip
+    for key, path in doc["outputs"].items():
+        print(f"wrote {key}: {path}")

@@ -1,0 +1,460 @@
+"""The user's workflow on top of the registry: train, evaluate, compare, identify, demo.
+
+Every function takes and returns plain objects (records, models, JSON-ready dicts) so the CLI
+is a thin layer over them and scripts can call them directly. Descriptors and classifiers are
+looked up by name in the plugin registry, so a third-party plugin joins every step for free.
+"""
+
+from __future__ import annotations
+
+import os
+import time
+from collections.abc import Callable, Iterable, Mapping, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from .errors import UsageError
+from .records import GraspRecord, Pose
+
+DEMO_SHAPES: tuple[str, ...] = ("cone", "torus", "sphere", "hyperboloid", "cylinder")
+"""The thesis' five test shapes."""
+
+DEMO_CLASSIFIERS: tuple[str, ...] = ("svm", "knn", "som", "dtw-template")
+"""Classifiers the demo compares on the signature: the ones that train in seconds."""
+
+LATENCY_SAMPLES = 20
+"""Single-grasp predictions timed per pair in :func:`compare` (the median is reported)."""
+
+
+# --- data ---------------------------------------------------------------------------------------
+
+
+def records_from(path: str | os.PathLike) -> list[GraspRecord]:
+    """Every record of a dataset folder (manifest and shards), of a folder of ``.npz`` records,
+    or of one ``.npz`` record file."""
+    from .records import load_record
+
+    path = Path(path)
+    if not path.exists():
+        raise UsageError(f"data path {path} does not exist")
+    if path.is_file():
+        return [load_record(path)]
+    if _is_dataset(path):
+        from .dataset import load_dataset
+
+        records = list(load_dataset(path))
+    else:
+        files = sorted(path.glob("*.npz"))
+        records = [load_record(f) for f in files]
+    if not records:
+        raise UsageError(f"{path} holds no grasp records")
+    return records
+
+
+def _is_dataset(path: Path) -> bool:
+    try:
+        from .dataset import is_dataset
+    except ImportError:
+        return (path / "manifest.json").is_file()
+    return bool(is_dataset(path))
+
+
+def labels_of(records: Sequence[GraspRecord]) -> np.ndarray:
+    """True shape names, the classifiers' targets."""
+    return np.array([r.shape for r in records], dtype=object).astype(str)
+
+
+def _checked(records: Iterable[GraspRecord], what: str) -> list[GraspRecord]:
+    records = list(records)
+    if not records:
+        raise UsageError(f"the {what} set holds no grasp records")
+    return records
+
+
+def split(
+    records: Sequence[GraspRecord], test_fraction: float = 0.3, seed: int = 0
+) -> tuple[list[GraspRecord], list[GraspRecord]]:
+    """Seeded split stratified by shape: every shape keeps its share in both halves."""
+    from sklearn.model_selection import train_test_split
+
+    records = _checked(records, "data")
+    if not 0.0 < test_fraction < 1.0:
+        raise UsageError(f"test fraction must be between 0 and 1, got {test_fraction}")
+    y = labels_of(records)
+    names, counts = np.unique(y, return_counts=True)
+    if len(names) < 2:
+        raise UsageError(f"the data holds a single shape ({names[0]}): nothing to tell apart")
+    if counts.min() < 2:
+        raise UsageError(
+            f"shape {names[counts.argmin()]!r} has only one record: a split needs at least two"
+        )
+    n_test = max(len(names), int(round(test_fraction * len(records))))
+    if len(records) - n_test < len(names):
+        raise UsageError(f"{len(records)} records are too few to split over {len(names)} shapes")
+    idx_train, idx_test = train_test_split(
+        np.arange(len(records)), test_size=n_test, stratify=y, random_state=seed
+    )
+    return [records[i] for i in sorted(idx_train)], [records[i] for i in sorted(idx_test)]
+
+
+# --- train / evaluate / identify ----------------------------------------------------------------
+
+
+def train(
+    records: Iterable[GraspRecord],
+    descriptor: str = "signature",
+    classifier: str = "svm",
+    params: Mapping[str, Any] | None = None,
+    descriptor_params: Mapping[str, Any] | None = None,
+):
+    """Fit ``classifier`` (with estimator ``params``) on ``descriptor`` features of the records.
+
+    Returns a :class:`tactile_bullet.models.Model` that remembers both names and parameters, so a
+    saved model rebuilds the same features when it is loaded elsewhere."""
+    from .models import Model
+    from .plugins import get_descriptor
+
+    records = _checked(records, "training")
+    y = labels_of(records)
+    if len(set(y)) < 2:
+        raise UsageError(f"training needs at least two shapes, the data holds only {y[0]!r}")
+    desc = get_descriptor(descriptor, **dict(descriptor_params or {}))
+    features = desc.transform(records)
+    estimator = _fit(classifier, params, features, y)
+    return Model(
+        descriptor=desc.name,
+        descriptor_params=dict(desc.params),
+        classifier=classifier,
+        classifier_params=dict(params or {}),
+        estimator=estimator,
+    )
+
+
+def _fit(classifier: str, params: Mapping[str, Any] | None, features: np.ndarray, y: np.ndarray):
+    from .plugins import get_classifier
+
+    try:
+        estimator = get_classifier(classifier, **dict(params or {}))
+    except TypeError as exc:
+        raise UsageError(f"classifier {classifier!r} rejected its parameters: {exc}") from None
+    try:
+        return estimator.fit(features, y)
+    except (ValueError, TypeError) as exc:
+        if not params:
+            raise
+        first = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
+        raise UsageError(f"classifier {classifier!r} rejected its parameters: {first}") from None
+
+
+def predict(model, records: Sequence[GraspRecord]) -> np.ndarray:
+    """Shape names the model gives the records."""
+    return np.asarray(model.predict_records(list(records))).astype(str)
+
+
+def evaluate(model, records: Iterable[GraspRecord]) -> dict[str, Any]:
+    """Score a model on labelled records: the ``evaluate --json`` document (DESIGN section 5)
+    with accuracy by object size and by position, and which model was scored."""
+    from .reports import class_order, evaluation_report
+
+    records = _checked(records, "test")
+    y_true = labels_of(records)
+    known = [str(c) for c in model.classes]
+    if not set(y_true) & set(known):
+        raise UsageError(
+            f"the data's shapes ({', '.join(sorted(set(y_true)))}) are none of the model's "
+            f"classes ({', '.join(known)})"
+        )
+    y_pred = predict(model, records)
+    doc = evaluation_report(y_true, y_pred, class_order(known, y_true), records)
+    unknown = sorted(set(y_true) - set(known))
+    if unknown:
+        doc["unknown_classes"] = unknown
+    doc["model"] = describe_model(model)
+    return doc
+
+
+def describe_model(model) -> dict[str, Any]:
+    return {
+        "descriptor": model.descriptor,
+        "descriptor_params": dict(model.descriptor_params),
+        "classifier": model.classifier,
+        "classifier_params": dict(model.classifier_params),
+        "classes": [str(c) for c in model.classes],
+    }
+
+
+def identify(model, record: GraspRecord) -> dict[str, Any]:
+    """Name the shape of one grasp: ``{"shape", "probabilities": {class: p}}``."""
+    classes = [str(c) for c in model.classes]
+    # the estimator's own decision, which can differ from the probability argmax (SVM + Platt)
+    shape = str(predict(model, [record])[0])
+    try:
+        proba = np.asarray(model.predict_proba_records([record]), dtype=float)[0]
+        probabilities = {c: float(p) for c, p in zip(classes, proba, strict=True)}
+    except (AttributeError, NotImplementedError):
+        probabilities = {c: float(c == shape) for c in classes}
+    return {"shape": shape, "probabilities": probabilities}
+
+
+# --- compare ------------------------------------------------------------------------------------
+
+
+def compare(
+    train_records: Iterable[GraspRecord],
+    test_records: Iterable[GraspRecord] | None = None,
+    descriptors: Sequence[str] = ("signature",),
+    classifiers: Sequence[str] = ("svm",),
+    seed: int = 0,
+    test_fraction: float = 0.3,
+    on_pair: Callable[[dict[str, Any]], None] | None = None,
+) -> list[dict[str, Any]]:
+    """Accuracy and cost of every descriptor x classifier pair on the same train/test data.
+
+    Without ``test_records`` the training records are split (seeded, stratified by shape).
+    ``fit_time_s`` is the classifier's fit on precomputed features; ``predict_latency_ms`` the
+    median time to identify one grasp from its record (descriptor plus prediction), the figure
+    that matters on a robot."""
+    from .plugins import get_descriptor
+
+    train_records = _checked(train_records, "training")
+    if test_records is None:
+        train_records, test_records = split(train_records, test_fraction, seed)
+    test_records = _checked(test_records, "test")
+    if not descriptors or not classifiers:
+        raise UsageError("compare needs at least one descriptor and one classifier")
+    y_train, y_test = labels_of(train_records), labels_of(test_records)
+    if len(set(y_train)) < 2:
+        raise UsageError("training needs at least two shapes")
+    # resolve every name up front so a typo fails before minutes of fitting
+    descs = [get_descriptor(d) for d in descriptors]
+    _check_classifiers(classifiers)
+    rows = []
+    for desc in descs:
+        x_train, x_test = desc.transform(train_records), desc.transform(test_records)
+        for name in classifiers:
+            start = time.perf_counter()
+            estimator = _fit(name, None, x_train, y_train)
+            fit_time = time.perf_counter() - start
+            y_pred = np.asarray(estimator.predict(x_test)).astype(str)
+            row = {
+                "descriptor": desc.name,
+                "classifier": name,
+                "accuracy": float(np.mean(y_pred == y_test)),
+                "fit_time_s": fit_time,
+                "predict_latency_ms": _latency_ms(desc, estimator, test_records),
+                "train_records": len(train_records),
+                "test_records": len(test_records),
+            }
+            rows.append(row)
+            if on_pair is not None:
+                on_pair(row)
+    return rows
+
+
+def _check_classifiers(names: Sequence[str]) -> None:
+    from .plugins import get_classifier
+
+    for name in names:
+        get_classifier(name)
+
+
+def _latency_ms(desc, estimator, records: Sequence[GraspRecord]) -> float:
+    times = []
+    for rec in list(records)[:LATENCY_SAMPLES]:
+        start = time.perf_counter()
+        estimator.predict(desc.transform([rec]))
+        times.append(time.perf_counter() - start)
+    return 1000.0 * float(np.median(times))
+
+
+# --- simulation in bulk -------------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class GraspSpec:
+    """One grasp to simulate: shape, sizes, pose and seed."""
+
+    shape: str
+    params: Mapping[str, float]
+    pose: Pose
+    seed: int
+
+
+def _simulate(spec: GraspSpec) -> GraspRecord | str:
+    """Worker: a record, or the one-line reason it could not be simulated."""
+    from .grasp import simulate_grasp
+
+    try:
+        return simulate_grasp(spec.shape, spec.params, spec.pose, seed=spec.seed)
+    except UsageError as exc:
+        return f"{spec.shape} {dict(spec.params)} {spec.pose.offset}: {exc}"
+
+
+def simulate_many(
+    specs: Sequence[GraspSpec], workers: int = 1, show: bool = False, desc: str = "grasps"
+) -> tuple[list[GraspRecord], list[str]]:
+    """Simulate every spec (in order) over ``workers`` processes: (records, failures)."""
+    from .cli.common import progress
+
+    specs = list(specs)
+    workers = max(1, min(int(workers), len(specs) or 1))
+    if workers == 1:
+        results = [_simulate(s) for s in progress(specs, len(specs), desc, show)]
+    else:
+        import multiprocessing
+
+        ctx = multiprocessing.get_context("fork" if os.name == "posix" else "spawn")
+        with ctx.Pool(workers) as pool:
+            stream = pool.imap(_simulate, specs, chunksize=2)
+            results = list(progress(stream, len(specs), desc, show))
+    records = [r for r in results if isinstance(r, GraspRecord)]
+    failures = [r for r in results if not isinstance(r, GraspRecord)]
+    return records, failures
+
+
+# --- demo ---------------------------------------------------------------------------------------
+
+TRAIN_FRACTIONS: tuple[float, ...] = (0.0, 0.25, 0.5, 0.75, 1.0)
+"""Relative sizes (in each parameter's valid range) the demo trains on."""
+TEST_FRACTIONS: tuple[float, ...] = (0.125, 0.375, 0.625, 0.875)
+"""Relative sizes it tests on: interleaved with the training ones, never equal to them."""
+TRAIN_OFFSETS: tuple[tuple[float, float, float], ...] = (
+    (-0.010, 0.0, -0.005), (0.0, 0.0, -0.005), (0.010, 0.0, -0.005),
+    (-0.010, 0.0, 0.005), (0.0, 0.0, 0.005), (0.010, 0.0, 0.005),
+)  # fmt: skip
+"""Object offsets (m) seen in training: +-10 mm along O-O', +-5 mm along the fingers."""
+TEST_OFFSETS: tuple[tuple[float, float, float], ...] = (
+    (-0.005, 0.0, 0.0),
+    (0.005, 0.0, 0.0),
+    (0.0, 0.0, 0.0),
+    (0.005, 0.0, 0.0025),
+)
+"""Offsets tested: between the training ones, none equal to any of them."""
+
+
+def demo_specs(
+    per_shape: int,
+    fractions: Sequence[float],
+    offsets: Sequence[tuple[float, float, float]],
+    rng: np.random.Generator,
+    shapes: Sequence[str] = DEMO_SHAPES,
+) -> list[GraspSpec]:
+    """``per_shape`` grasps of each shape, each parameter at a relative size drawn from
+    ``fractions`` of its valid range, at an offset drawn from ``offsets``; combinations a shape
+    refuses (a torus whose hole would close) are drawn again."""
+    from .shapes import BUILTIN_SHAPES
+
+    table = {s.name: s for s in BUILTIN_SHAPES}
+    specs = []
+    for name in shapes:
+        shape = table[name]
+        for _ in range(per_shape):
+            for _attempt in range(50):
+                given = {
+                    k: p.min + float(rng.choice(fractions)) * (p.max - p.min)
+                    for k, p in shape.params.items()
+                }
+                try:
+                    values = shape.resolve(given)
+                    break
+                except UsageError:
+                    continue
+            else:  # pragma: no cover - every built-in shape has valid combinations
+                raise UsageError(f"no valid size of {name} among the demo's fractions")
+            offset = offsets[int(rng.integers(len(offsets)))]
+            seed = int(rng.integers(2**31 - 1))
+            specs.append(GraspSpec(name, values, Pose(offset), seed))
+    return specs
+
+
+def demo(
+    out: str | os.PathLike = "tactile-bullet-demo",
+    seed: int = 0,
+    train_per_shape: int = 30,
+    test_per_shape: int = 16,
+    workers: int = 2,
+    classifiers: Sequence[str] = DEMO_CLASSIFIERS,
+    show: bool = False,
+    log: Callable[[str], None] | None = None,
+) -> dict[str, Any]:
+    """The first thing to run: simulate a training set and a held-out test set of the five
+    thesis shapes (test sizes and offsets never seen in training), train signature + SVM,
+    score it, compare the other cheap classifiers, and write a report folder.
+
+    ``out`` receives ``model.npz`` (the signature + SVM model), ``report/`` (report.json,
+    confusion matrix, accuracy by size and position, example signatures, comparison.json)."""
+    from .models import save_model
+    from .reports import plot_signatures, report_dir, write_evaluation_report, write_json
+
+    say = log or (lambda _msg: None)
+    if train_per_shape < 2 or test_per_shape < 1:
+        raise UsageError("the demo needs at least 2 training and 1 test grasp per shape")
+    out = report_dir(out)
+    report = report_dir(out / "report")
+    started = time.perf_counter()
+    rng = np.random.default_rng(seed)
+    train_specs = demo_specs(train_per_shape, TRAIN_FRACTIONS, TRAIN_OFFSETS, rng)
+    test_specs = demo_specs(test_per_shape, TEST_FRACTIONS, TEST_OFFSETS, rng)
+    say(f"simulating {len(train_specs)} training grasps ({workers} workers)")
+    train_records, failed_train = simulate_many(train_specs, workers, show, "train grasps")
+    say(f"simulating {len(test_specs)} test grasps at unseen sizes and offsets")
+    test_records, failed_test = simulate_many(test_specs, workers, show, "test grasps")
+    sim_time = time.perf_counter() - started
+    if len({r.shape for r in train_records}) < 2 or not test_records:
+        raise UsageError("too few grasps could be simulated to train and test a model")
+
+    model = train(train_records, "signature", "svm")
+    model_path = save_model(out / "model.npz", model)
+    result = evaluate(model, test_records)
+    comparison = compare(
+        train_records, test_records, ("signature",), [c for c in classifiers], seed=seed
+    )
+    write_evaluation_report(result, report)
+    plot_signatures(train_records, report / "signatures.png")
+    write_json(report / "comparison.json", comparison)
+    doc = {
+        "accuracy": result["accuracy"],
+        "classes": result["classes"],
+        "confusion_matrix": result["confusion_matrix"],
+        "per_class": result["per_class"],
+        "by_size": result.get("by_size", {}),
+        "by_position": result.get("by_position", {}),
+        "train_records": len(train_records),
+        "test_records": len(test_records),
+        "failed": len(failed_train) + len(failed_test),
+        "report": str(report),
+        "model": str(model_path),
+        "comparison": comparison,
+        "seed": int(seed),
+        "simulation_time_s": sim_time,
+        "wall_time_s": time.perf_counter() - started,
+    }
+    write_json(report / "demo.json", doc)
+    return doc
+
+
+def demo_text(doc: Mapping[str, Any]) -> str:
+    """What ``demo`` prints on a terminal."""
+    from .reports import confusion_text
+
+    lines = [
+        f"trained signature + svm on {doc['train_records']} grasps; tested on "
+        f"{doc['test_records']} grasps at sizes and offsets not seen in training",
+        "",
+        confusion_text(doc["confusion_matrix"], doc["classes"]),
+        "",
+        f"accuracy (signature + svm): {100 * doc['accuracy']:.1f}%",
+    ]
+    for row in doc.get("comparison", []):
+        lines.append(
+            f"  {row['descriptor']} + {row['classifier']}: {100 * row['accuracy']:.1f}% "
+            f"(fit {row['fit_time_s']:.2f} s, {row['predict_latency_ms']:.2f} ms per grasp)"
+        )
+    if doc.get("failed"):
+        lines.append(f"{doc['failed']} grasps could not be simulated (skipped)")
+    lines.append(f"report: {doc['report']}  model: {doc['model']}")
+    lines.append(f"wall time: {doc['wall_time_s']:.0f} s")
+    return "\n".join(lines) + "\n"

@@ -1,0 +1,84 @@
+"""``tactile-bullet compare``: every descriptor x classifier pair on the same data."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+
+from ..errors import UsageError
+from .common import emit_json, show_progress
+
+
+def add_parser(sub) -> None:
+    parser = sub.add_parser(
+        "compare",
+        help="compare descriptor x classifier pairs: accuracy, fit time, latency",
+        description="Train and test every descriptor x classifier pair on the same data. "
+        "Without --test, the data is split (seeded, stratified by shape).",
+    )
+    parser.add_argument("--data", required=True, metavar="DIR", help="training dataset")
+    parser.add_argument("--test", metavar="DIR", help="test dataset (default: split --data)")
+    parser.add_argument(
+        "--descriptor", metavar="A,B", help="descriptors to compare (default: all installed)"
+    )
+    parser.add_argument(
+        "--classifier", metavar="X,Y", help="classifiers to compare (default: all installed)"
+    )
+    parser.add_argument("--test-fraction", type=float, default=0.3, help="share held out")
+    parser.add_argument("--seed", type=int, default=0, help="seed of the split")
+    parser.add_argument("--json", action="store_true", help="print one JSON document")
+    parser.set_defaults(run=run)
+
+
+def name_list(text: str | None, what: str, default) -> list[str]:
+    """'a,b' -> ['a', 'b'] (no empties, no duplicates); None -> every installed name."""
+    if text is None:
+        return list(default())
+    names = [n.strip() for n in text.split(",")]
+    if not all(names):
+        raise UsageError(f"{what} expects comma-separated names, got {text!r}")
+    return list(dict.fromkeys(names))
+
+
+def run(args: argparse.Namespace) -> int:
+    from ..plugins import classifier_names, descriptor_names
+    from ..workflow import compare, records_from
+
+    descriptors = name_list(args.descriptor, "--descriptor", descriptor_names)
+    classifiers = name_list(args.classifier, "--classifier", classifier_names)
+    train_records = records_from(args.data)
+    test_records = records_from(args.test) if args.test else None
+    verbose = show_progress(args.json)
+
+    def report(row: dict) -> None:
+        if verbose:
+            print(f"  done {row['descriptor']} + {row['classifier']}", file=sys.stderr)
+
+    rows = compare(
+        train_records, test_records, descriptors, classifiers,
+        seed=args.seed, test_fraction=args.test_fraction, on_pair=report,
+    )  # fmt: skip
+    if args.json:
+        emit_json(rows)
+    else:
+        print(comparison_table(rows), end="")
+    return 0
+
+
+def comparison_table(rows: list[dict]) -> str:
+    head = ("descriptor", "classifier", "accuracy", "fit (s)", "latency (ms)")
+    body = [
+        (
+            r["descriptor"], r["classifier"], f"{100 * r['accuracy']:.1f}%",
+            f"{r['fit_time_s']:.3f}", f"{r['predict_latency_ms']:.2f}",
+        )
+        for r in rows
+    ]  # fmt: skip
+    widths = [max(len(str(x)) for x in col) for col in zip(head, *body, strict=True)]
+    lines = ["  ".join(str(c).ljust(w) for c, w in zip(row, widths, strict=True)).rstrip()
+             for row in (head, *body)]  # fmt: skip
+    if rows:
+        lines.append(
+            f"({rows[0]['train_records']} training and {rows[0]['test_records']} test grasps)"
+        )
+    return "\n".join(lines) + "\n"

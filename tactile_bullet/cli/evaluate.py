@@ -1,0 +1,45 @@
+"""``tactile-bullet evaluate``: score a saved model on a labelled dataset."""
+
+from __future__ import annotations
+
+import argparse
+
+from .common import emit_json
+
+
+def add_parser(sub) -> None:
+    parser = sub.add_parser(
+        "evaluate",
+        help="score a model on a dataset (accuracy, confusion matrix, by size and position)",
+        description="Predict the shape of every grasp in a dataset with a saved model and "
+        "compare with the true shapes: accuracy, confusion matrix, precision and recall per "
+        "shape, accuracy by object size and by position.",
+    )
+    parser.add_argument("--model", required=True, help="model file written by `train`")
+    parser.add_argument("--data", required=True, metavar="DIR", help="dataset folder or .npz")
+    parser.add_argument(
+        "--report", metavar="DIR", help="write report.json and PNG figures into this folder"
+    )
+    parser.add_argument("--json", action="store_true", help="print one JSON document")
+    parser.set_defaults(run=run)
+
+
+def run(args: argparse.Namespace) -> int:
+    from ..models import load_model
+    from ..reports import report_dir, summary_text, write_evaluation_report
+    from ..workflow import evaluate, records_from
+
+    model = load_model(args.model)
+    report = report_dir(args.report) if args.report else None
+    doc = evaluate(model, records_from(args.data))
+    if report is not None:
+        written = write_evaluation_report(doc, report)
+        doc["report"] = str(report)
+        doc["figures"] = [str(p) for p in written if p.suffix == ".png"]
+    if args.json:
+        emit_json(doc)
+    else:
+        print(summary_text(doc), end="")
+        if report is not None:
+            print(f"report: {report}")
+    return 0

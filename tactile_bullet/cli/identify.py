@@ -1,0 +1,82 @@
+"""``tactile-bullet identify``: name the shape of one new grasp with a saved model."""
+
+from __future__ import annotations
+
+import argparse
+import math
+
+from ..errors import UsageError
+from .common import emit_json, parse_key_values, parse_number, parse_vector
+
+
+def add_parser(sub) -> None:
+    parser = sub.add_parser(
+        "identify",
+        help="simulate a grasp (or read a record) and name its shape with a model",
+        description="Identify the shape of one grasp: simulate a new one on --shape, or read "
+        "a saved GraspRecord with --record, and print the model's answer and probabilities.",
+    )
+    parser.add_argument("--model", required=True, help="model file written by `train`")
+    source = parser.add_mutually_exclusive_group(required=True)
+    source.add_argument("--shape", help="simulate a grasp on this shape")
+    source.add_argument("--record", metavar="REC.npz", help="a saved grasp record")
+    parser.add_argument(
+        "--param", action="append", metavar="KEY=VALUE", help="shape size in metres (repeatable)"
+    )
+    parser.add_argument(
+        "--offset", default="0,0,0", metavar="X,Y,Z", help="object offset in metres (palm frame)"
+    )
+    parser.add_argument(
+        "--rotation", default="0", metavar="DEG", help="object rotation about the palm normal"
+    )
+    parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--json", action="store_true", help="print one JSON document")
+    parser.set_defaults(run=run)
+
+
+def _record(args: argparse.Namespace):
+    if args.record:
+        if args.param or args.offset != "0,0,0" or args.rotation != "0":
+            raise UsageError(
+                "--param, --offset and --rotation describe a new grasp: not with --record"
+            )
+        from ..records import load_record
+
+        return load_record(args.record)
+    from ..grasp import simulate_grasp
+    from ..records import Pose
+
+    params = {k: parse_number(v, f"--param {k}") for k, v in parse_key_values(args.param).items()}
+    rotation = math.radians(parse_number(args.rotation, "--rotation"))
+    if abs(rotation) > math.radians(90):
+        raise UsageError(f"--rotation {args.rotation} is out of range [-90, 90] degrees")
+    pose = Pose(parse_vector(args.offset, 3, "--offset"), rotation)
+    return simulate_grasp(args.shape, params, pose, seed=args.seed)
+
+
+def run(args: argparse.Namespace) -> int:
+    from ..models import load_model
+    from ..workflow import identify
+
+    model = load_model(args.model)
+    record = _record(args)
+    doc = identify(model, record)
+    doc["true_shape"] = record.shape
+    doc["grasp"] = {
+        "shape": record.shape,
+        "params": dict(record.params),
+        "pose": {
+            "offset": list(record.pose.offset),
+            "rotation_deg": math.degrees(record.pose.rotation),
+        },
+        "fingers_in_contact": list(record.fingers_in_contact),
+        "flags": list(record.flags),
+    }
+    if args.json:
+        emit_json(doc)
+    else:
+        print(f"identified: {doc['shape']} (grasped: {record.shape})")
+        ranked = sorted(doc["probabilities"].items(), key=lambda kv: -kv[1])
+        for name, p in ranked:
+            print(f"  {name:<20} {p:6.3f}")
+    return 0

@@ -1,0 +1,65 @@
+"""``tactile-bullet train``: fit a descriptor + classifier on a dataset and save the model."""
+
+from __future__ import annotations
+
+import argparse
+
+from .common import convert_value, emit_json, parse_key_values, writable_file
+
+
+def add_parser(sub) -> None:
+    parser = sub.add_parser(
+        "train",
+        help="train a shape classifier on a dataset and save it",
+        description="Compute a descriptor of every grasp in a dataset, fit a classifier on the "
+        "shape names and save both (names and parameters) as one model file.",
+    )
+    parser.add_argument("--data", required=True, metavar="DIR", help="dataset folder or .npz")
+    parser.add_argument("--descriptor", default="signature", help="descriptor name (a+b joins)")
+    parser.add_argument("--classifier", default="svm", help="classifier name")
+    parser.add_argument(
+        "--param", action="append", metavar="KEY=VALUE", help="classifier parameter (repeatable)"
+    )
+    parser.add_argument(
+        "--descriptor-param", action="append", metavar="KEY=VALUE",
+        help="descriptor parameter (repeatable)",
+    )  # fmt: skip
+    parser.add_argument("--out", required=True, metavar="MODEL", help="model file to write")
+    parser.add_argument("--json", action="store_true", help="print one JSON document")
+    parser.set_defaults(run=run)
+
+
+def estimator_params(items: list[str] | None, what: str) -> dict:
+    """KEY=VALUE texts -> typed values (int, float, bool, None or string)."""
+    return {k: convert_value(v) for k, v in parse_key_values(items, what).items()}
+
+
+def run(args: argparse.Namespace) -> int:
+    import time
+
+    from ..models import save_model
+    from ..workflow import describe_model, records_from, train
+
+    out = writable_file(args.out, "--out")
+    params = estimator_params(args.param, "--param")
+    descriptor_params = estimator_params(args.descriptor_param, "--descriptor-param")
+    records = records_from(args.data)
+    start = time.perf_counter()
+    model = train(records, args.descriptor, args.classifier, params, descriptor_params)
+    fit_time = time.perf_counter() - start
+    path = save_model(out, model)
+    doc = {
+        "model": str(path),
+        **describe_model(model),
+        "train_records": len(records),
+        "fit_time_s": fit_time,
+    }
+    if args.json:
+        emit_json(doc)
+    else:
+        print(
+            f"trained {doc['descriptor']} + {doc['classifier']} on {len(records)} grasps "
+            f"({', '.join(doc['classes'])}) in {fit_time:.2f} s"
+        )
+        print(f"wrote model: {path}")
+    return 0

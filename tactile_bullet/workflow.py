@@ -216,7 +216,8 @@ def compare(
     Without ``test_records`` the training records are split (seeded, stratified by shape).
     ``fit_time_s`` is the classifier's fit on precomputed features; ``predict_latency_ms`` the
     median time to identify one grasp from its record (descriptor plus prediction), the figure
-    that matters on a robot."""
+    that matters on a robot. A pair that cannot work together (``dtw-template`` on anything but
+    the signature) is listed with ``accuracy`` None and the reason under ``skipped``."""
     from .plugins import get_descriptor
 
     train_records = _checked(train_records, "training")
@@ -235,6 +236,10 @@ def compare(
     for desc in descs:
         x_train, x_test = desc.transform(train_records), desc.transform(test_records)
         for name in classifiers:
+            reason = _incompatible(desc.name, name)
+            if reason:
+                rows.append(_skipped_row(desc.name, name, reason, train_records, test_records))
+                continue
             start = time.perf_counter()
             estimator = _fit(name, None, x_train, y_train)
             fit_time = time.perf_counter() - start
@@ -252,6 +257,31 @@ def compare(
             if on_pair is not None:
                 on_pair(row)
     return rows
+
+
+def _incompatible(descriptor: str, classifier: str) -> str | None:
+    """Why a classifier cannot read a descriptor's features (``dtw-template`` reads only the
+    signature), or None when it can."""
+    from . import plugins
+
+    check = getattr(plugins, "required_descriptor", None)
+    needed = check(classifier) if check else None
+    if needed is None or needed == descriptor:
+        return None
+    return f"{classifier} reads only the {needed} descriptor"
+
+
+def _skipped_row(descriptor, classifier, reason, train_records, test_records) -> dict[str, Any]:
+    return {
+        "descriptor": descriptor,
+        "classifier": classifier,
+        "accuracy": None,
+        "fit_time_s": None,
+        "predict_latency_ms": None,
+        "train_records": len(train_records),
+        "test_records": len(test_records),
+        "skipped": reason,
+    }
 
 
 def _check_classifiers(names: Sequence[str]) -> None:
@@ -286,9 +316,12 @@ class GraspSpec:
 def _simulate(spec: GraspSpec) -> GraspRecord | str:
     """Worker: a record, or the one-line reason it could not be simulated."""
     from .grasp import simulate_grasp
+    from .shapes import BUILTIN_SHAPES
 
+    # built-in shapes by value: a worker need not load every plugin to grasp a sphere
+    shape = next((s for s in BUILTIN_SHAPES if s.name == spec.shape), spec.shape)
     try:
-        return simulate_grasp(spec.shape, spec.params, spec.pose, seed=spec.seed)
+        return simulate_grasp(shape, spec.params, spec.pose, seed=spec.seed)
     except UsageError as exc:
         return f"{spec.shape} {dict(spec.params)} {spec.pose.offset}: {exc}"
 
@@ -335,39 +368,82 @@ TEST_OFFSETS: tuple[tuple[float, float, float], ...] = (
 """Offsets tested: between the training ones, none equal to any of them."""
 
 
-def demo_specs(
+def draw_specs(
+    shape: str,
+    n: int,
+    fractions: Sequence[float],
+    offsets: Sequence[tuple[float, float, float]],
+    rng: np.random.Generator,
+) -> list[GraspSpec]:
+    """``n`` grasps of a built-in shape, each parameter at a relative size drawn from
+    ``fractions`` of its valid range, at an offset drawn from ``offsets``; combinations the
+    shape refuses (a torus whose hole would close) are drawn again."""
+    from .shapes import BUILTIN_SHAPES
+
+    spec = next(s for s in BUILTIN_SHAPES if s.name == shape)
+    out = []
+    for _ in range(n):
+        for _attempt in range(100):
+            given = {
+                k: p.min + float(rng.choice(fractions)) * (p.max - p.min)
+                for k, p in spec.params.items()
+            }
+            try:
+                values = spec.resolve(given)
+                break
+            except UsageError:
+                continue
+        else:  # pragma: no cover - every built-in shape has valid combinations
+            raise UsageError(f"no valid size of {shape} among the demo's fractions")
+        offset = offsets[int(rng.integers(len(offsets)))]
+        out.append(GraspSpec(shape, values, Pose(offset), int(rng.integers(2**31 - 1))))
+    return out
+
+
+@dataclass
+class SimulatedSet:
+    """Records of a demo set and what was lost on the way."""
+
+    records: list[GraspRecord]
+    refused: list[str]
+    """Poses the simulator refused (the object would overlap the open hand)."""
+    no_contact: int
+    """Grasps that touched nothing: no shape information, left out."""
+
+
+def simulate_set(
     per_shape: int,
     fractions: Sequence[float],
     offsets: Sequence[tuple[float, float, float]],
     rng: np.random.Generator,
+    workers: int = 1,
+    show: bool = False,
+    desc: str = "grasps",
     shapes: Sequence[str] = DEMO_SHAPES,
-) -> list[GraspSpec]:
-    """``per_shape`` grasps of each shape, each parameter at a relative size drawn from
-    ``fractions`` of its valid range, at an offset drawn from ``offsets``; combinations a shape
-    refuses (a torus whose hole would close) are drawn again."""
-    from .shapes import BUILTIN_SHAPES
-
-    table = {s.name: s for s in BUILTIN_SHAPES}
-    specs = []
-    for name in shapes:
-        shape = table[name]
-        for _ in range(per_shape):
-            for _attempt in range(50):
-                given = {
-                    k: p.min + float(rng.choice(fractions)) * (p.max - p.min)
-                    for k, p in shape.params.items()
-                }
-                try:
-                    values = shape.resolve(given)
-                    break
-                except UsageError:
-                    continue
-            else:  # pragma: no cover - every built-in shape has valid combinations
-                raise UsageError(f"no valid size of {name} among the demo's fractions")
-            offset = offsets[int(rng.integers(len(offsets)))]
-            seed = int(rng.integers(2**31 - 1))
-            specs.append(GraspSpec(name, values, Pose(offset), seed))
-    return specs
+    rounds: int = 3,
+) -> SimulatedSet:
+    """``per_shape`` usable grasps of each shape where possible: a refused pose or a grasp
+    without contact is replaced by a fresh draw, for up to ``rounds`` rounds, so every shape
+    keeps its share of the set."""
+    wanted = {name: per_shape for name in shapes}
+    kept: dict[str, list[GraspRecord]] = {name: [] for name in shapes}
+    refused: list[str] = []
+    no_contact = 0
+    for _ in range(rounds):
+        specs = [
+            s for name, n in wanted.items() for s in draw_specs(name, n, fractions, offsets, rng)
+        ]
+        if not specs:
+            break
+        records, failures = simulate_many(specs, workers, show, desc)
+        refused += failures
+        for rec in records:
+            if "no_contact" in rec.flags:
+                no_contact += 1
+                continue
+            kept[rec.shape].append(rec)
+        wanted = {name: per_shape - len(kept[name]) for name in shapes}
+    return SimulatedSet([r for name in shapes for r in kept[name]], refused, no_contact)
 
 
 def demo(
@@ -396,12 +472,15 @@ def demo(
     report = report_dir(out / "report")
     started = time.perf_counter()
     rng = np.random.default_rng(seed)
-    train_specs = demo_specs(train_per_shape, TRAIN_FRACTIONS, TRAIN_OFFSETS, rng)
-    test_specs = demo_specs(test_per_shape, TEST_FRACTIONS, TEST_OFFSETS, rng)
-    say(f"simulating {len(train_specs)} training grasps ({workers} workers)")
-    train_records, failed_train = simulate_many(train_specs, workers, show, "train grasps")
-    say(f"simulating {len(test_specs)} test grasps at unseen sizes and offsets")
-    test_records, failed_test = simulate_many(test_specs, workers, show, "test grasps")
+    say(f"simulating {len(DEMO_SHAPES) * train_per_shape} training grasps ({workers} workers)")
+    train_set = simulate_set(
+        train_per_shape, TRAIN_FRACTIONS, TRAIN_OFFSETS, rng, workers, show, "train grasps"
+    )
+    say(f"simulated {len(train_set.records)} training grasps; now the test set at unseen sizes")
+    test_set = simulate_set(
+        test_per_shape, TEST_FRACTIONS, TEST_OFFSETS, rng, workers, show, "test grasps"
+    )
+    train_records, test_records = train_set.records, test_set.records
     sim_time = time.perf_counter() - started
     if len({r.shape for r in train_records}) < 2 or not test_records:
         raise UsageError("too few grasps could be simulated to train and test a model")
@@ -424,7 +503,8 @@ def demo(
         "by_position": result.get("by_position", {}),
         "train_records": len(train_records),
         "test_records": len(test_records),
-        "failed": len(failed_train) + len(failed_test),
+        "refused_poses": len(train_set.refused) + len(test_set.refused),
+        "no_contact": train_set.no_contact + test_set.no_contact,
         "report": str(report),
         "model": str(model_path),
         "comparison": comparison,
@@ -449,12 +529,17 @@ def demo_text(doc: Mapping[str, Any]) -> str:
         f"accuracy (signature + svm): {100 * doc['accuracy']:.1f}%",
     ]
     for row in doc.get("comparison", []):
+        if row.get("accuracy") is None:
+            continue
         lines.append(
             f"  {row['descriptor']} + {row['classifier']}: {100 * row['accuracy']:.1f}% "
             f"(fit {row['fit_time_s']:.2f} s, {row['predict_latency_ms']:.2f} ms per grasp)"
         )
-    if doc.get("failed"):
-        lines.append(f"{doc['failed']} grasps could not be simulated (skipped)")
+    if doc.get("refused_poses") or doc.get("no_contact"):
+        lines.append(
+            f"replaced by fresh draws: {doc['refused_poses']} poses the simulator refused "
+            f"(object overlapping the open hand), {doc['no_contact']} grasps without contact"
+        )
     lines.append(f"report: {doc['report']}  model: {doc['model']}")
     lines.append(f"wall time: {doc['wall_time_s']:.0f} s")
     return "\n".join(lines) + "\n"

@@ -67,18 +67,27 @@ def run(args: argparse.Namespace) -> int:
 
 def comparison_table(rows: list[dict]) -> str:
     head = ("descriptor", "classifier", "accuracy", "fit (s)", "latency (ms)")
-    body = [
-        (
-            r["descriptor"], r["classifier"], f"{100 * r['accuracy']:.1f}%",
-            f"{r['fit_time_s']:.3f}", f"{r['predict_latency_ms']:.2f}",
-        )
-        for r in rows
-    ]  # fmt: skip
+    body = [_cells(r) for r in rows]
     widths = [max(len(str(x)) for x in col) for col in zip(head, *body, strict=True)]
     lines = ["  ".join(str(c).ljust(w) for c, w in zip(row, widths, strict=True)).rstrip()
              for row in (head, *body)]  # fmt: skip
+    skipped = [r for r in rows if r.get("skipped")]
+    for r in skipped:
+        lines.append(f"skipped {r['descriptor']} + {r['classifier']}: {r['skipped']}")
     if rows:
         lines.append(
             f"({rows[0]['train_records']} training and {rows[0]['test_records']} test grasps)"
         )
     return "\n".join(lines) + "\n"
+
+
+def _cells(row: dict) -> tuple[str, ...]:
+    if row.get("accuracy") is None:
+        return (row["descriptor"], row["classifier"], "-", "-", "-")
+    return (
+        row["descriptor"],
+        row["classifier"],
+        f"{100 * row['accuracy']:.1f}%",
+        f"{row['fit_time_s']:.3f}",
+        f"{row['predict_latency_ms']:.2f}",
+    )

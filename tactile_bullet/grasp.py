@@ -209,6 +209,7 @@ def _run(scene, spec, values, pose, ctl, seed, scene_hook) -> GraspRecord:
                                or bool(f.links[2] & links))  # fmt: skip
                     if hit or f.t3 >= upper[f.j3]:
                         f.stage = J0
+                        f.t3 = targets[f.j3] = states[3 * k][0]
                     else:
                         f.t3 = min(f.t3 + delta, upper[f.j3])
                         targets[f.j3] = f.t3
@@ -220,8 +221,10 @@ def _run(scene, spec, values, pose, ctl, seed, scene_hook) -> GraspRecord:
                     j2_blocked, j1_blocked = f.links[1] in links, bool(f.links[2] & links)
                 if f.j2_free and (j2_blocked or f.t2 >= upper[f.j2]):
                     f.j2_free = False
+                    f.t2 = targets[f.j2] = states[3 * k + 1][0]
                 if j1_blocked or (not f.j2_free and f.t1 >= upper[f.j1]):
                     f.stage = DONE
+                    f.t1 = targets[f.j1] = states[3 * k + 2][0]
                     continue
                 if f.j2_free:
                     f.t2 = min(f.t2 + delta, upper[f.j2])

@@ -15,6 +15,7 @@ from collections.abc import Iterator, Mapping, Sequence
 from dataclasses import dataclass
 
 import numpy as np
+import trimesh
 
 from .errors import UsageError
 from .hand import FINGER_LINKS, JOINT_NAMES, PALM_HALF_THICKNESS, urdf_path
@@ -30,8 +31,9 @@ STANDOFF = 0.005
 GRASP_Z = 0.09
 """z (m) of the object's axis at zero offset: the sheet's grasp centre height."""
 
-SPAN_X = 0.045
-"""Half-width (m) of the hand along O-O' used to find the object's nearest point to the palm."""
+SPAN_X = (-0.045, 0.11)
+"""Range of x (m) the open hand covers (little finger edge to thumb tip): the part of the
+object that must clear the palm and thumb at rest."""
 
 FRICTION = 0.8
 
@@ -104,12 +106,13 @@ def place_object(shape: Shape, params: Mapping[str, float], pose: Pose) -> Place
     """
     p = import_pybullet()
     quat = p.getQuaternionFromEuler([0.0, pose.rotation, 0.0])
-    rot = np.array(p.getMatrixFromQuaternion(quat)).reshape(3, 3)
-    verts = np.asarray(shape.mesh(**params).vertices) @ rot.T
-    near = verts[np.abs(verts[:, 0]) <= SPAN_X]
-    if len(near) == 0:
-        near = verts
-    top = float(near[:, 1].max())  # how far the object reaches toward +y (the palm)
+    # A cross-section at u along O-O' reaches r(u) toward the palm; turned by alpha about the
+    # palm normal it sits at x = u cos(alpha). The nearest point over the hand's span sets
+    # the depth (a dense profile, not the mesh vertices: a cone's mesh has none mid-length).
+    u = np.linspace(-0.3, 0.3, 1201)
+    x = u * np.cos(pose.rotation)
+    reach = shape.radius(u, **params)[(x >= SPAN_X[0]) & (x <= SPAN_X[1])]
+    top = float(reach.max()) if reach.size else 0.0
     y0 = -PALM_HALF_THICKNESS - STANDOFF - top
     pos = np.array([0.0, y0, GRASP_Z]) + np.asarray(pose.offset)
     return Placement(tuple(float(v) for v in pos), tuple(float(v) for v in quat))
@@ -207,7 +210,14 @@ class Scene:
         p = import_pybullet()
         bodies = []
         for piece in self.shape.pieces(**self.params):
-            col = c.createCollisionShape(p.GEOM_MESH, vertices=np.asarray(piece).tolist())
+            if isinstance(piece, trimesh.Trimesh):  # exact concave surface (static only)
+                col = c.createCollisionShape(
+                    p.GEOM_MESH,
+                    vertices=np.asarray(piece.vertices).tolist(),
+                    indices=np.asarray(piece.faces).ravel().tolist(),
+                )
+            else:  # convex hull of the vertices
+                col = c.createCollisionShape(p.GEOM_MESH, vertices=np.asarray(piece).tolist())
             body = c.createMultiBody(
                 baseMass=0.0,
                 baseCollisionShapeIndex=col,

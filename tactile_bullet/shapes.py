@@ -203,22 +203,27 @@ def sphere(radius: float = 0.045, sections: int = SECTIONS) -> trimesh.Trimesh:
     return _revolve(*_profile(sphere_radius, radius, sections // 2 + 1, radius=radius), sections)
 
 
-def torus(major_radius: float = 0.048, minor_radius: float = 0.042) -> trimesh.Trimesh:
+def torus(
+    major_radius: float = 0.048, minor_radius: float = 0.042, sections: int = SECTIONS
+) -> trimesh.Trimesh:
     """Torus around O-O': tube of ``minor_radius`` (m) centred ``major_radius`` (m) from it."""
-    mesh = trimesh.creation.torus(major_radius, minor_radius, SECTIONS, 32)
+    mesh = trimesh.creation.torus(major_radius, minor_radius, sections, 32)
     mesh.apply_transform(_Z_TO_X)
     return mesh
 
 
 def hyperboloid(
-    waist_radius: float = 0.028, end_radius: float = 0.045, length: float = 0.12
+    waist_radius: float = 0.028,
+    end_radius: float = 0.045,
+    length: float = 0.12,
+    sections: int = SECTIONS,
 ) -> trimesh.Trimesh:
     """One-sheet hyperboloid of revolution with flat ends, waist at x = 0."""
-    half = length / 2
-    return _revolve(
-        *_flat_ends(hyperboloid_radius, half, 33, waist_radius=waist_radius,
-                    end_radius=end_radius, length=length)
+    x, r = _flat_ends(
+        hyperboloid_radius, length / 2, 33,
+        waist_radius=waist_radius, end_radius=end_radius, length=length,
     )  # fmt: skip
+    return _revolve(x, r, sections)
 
 
 def ovoid(
@@ -261,7 +266,14 @@ def _single(mesh_fn) -> Callable[..., list[np.ndarray]]:
     return pieces
 
 
-def torus_pieces(
+def torus_pieces(major_radius: float = 0.048, minor_radius: float = 0.042) -> list:
+    """The torus as one exact static triangle mesh: the hole stays open and the surface the
+    fingers wrap has no internal faces. Convex sectors around O-O' were tried first: the
+    fingers curl across the sector cuts and the cut faces' normals knocked them about."""
+    return [torus(major_radius, minor_radius, sections=COLLISION_SECTIONS)]
+
+
+def torus_sector_pieces(
     major_radius: float = 0.048, minor_radius: float = 0.042, sectors: int = 24
 ) -> list[np.ndarray]:
     """The tube cut into ``sectors`` angular wedges about O-O'; each wedge's hull is convex and
@@ -295,6 +307,15 @@ def _slabs(radius_fn, half: float, slabs: int, **params) -> list[np.ndarray]:
 
 
 def hyperboloid_pieces(
+    waist_radius: float = 0.028, end_radius: float = 0.045, length: float = 0.12
+) -> list:
+    """The hyperboloid as one exact static triangle mesh: the waist stays concave. Convex
+    slabs along O-O' were tried first: a finger capsule straddling a cut felt the cut faces'
+    sideways normals and slid along the waist."""
+    return [hyperboloid(waist_radius, end_radius, length, sections=COLLISION_SECTIONS)]
+
+
+def hyperboloid_slab_pieces(
     waist_radius: float = 0.028, end_radius: float = 0.045, length: float = 0.12, slabs: int = 12
 ) -> list[np.ndarray]:
     """The hyperboloid as ``slabs`` convex frusta along its axis: the waist stays concave."""

@@ -1,0 +1,132 @@
+"""Physics facts of the simulated enclosure grasp (thesis Algorithm 1) that users rely on.
+
+Each grasp takes ~0.3-1 s on one core; the suite keeps to a few dozen of them.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from tactile_bullet.errors import UsageError
+from tactile_bullet.grasp import simulate_grasp
+from tactile_bullet.hand import LONG_FINGERS
+from tactile_bullet.records import ControllerSettings, Pose, load_record, save_record
+from tactile_bullet.shapes import BUILTIN_SHAPES, THESIS_SHAPES
+
+SHAPES = {s.name: s for s in BUILTIN_SHAPES}
+CONTACT = ControllerSettings(mode="contact")
+
+
+def mid_size(name: str) -> dict[str, float]:
+    return {k: (p.min + p.max) / 2 for k, p in SHAPES[name].params.items()}
+
+
+def total_flexion(record) -> np.ndarray:
+    """Per long finger, J3 + J2 + J1: the arc the finger subtends on the object (eq. 2.3)."""
+    return record.fci_angles().sum(axis=0)
+
+
+@pytest.mark.parametrize("shape", THESIS_SHAPES)
+def test_all_four_fingers_touch_a_centred_mid_size_object(shape):
+    record = simulate_grasp(shape, mid_size(shape), controller=CONTACT)
+    assert set(LONG_FINGERS) <= set(record.fingers_in_contact), record.fingers_in_contact
+    assert "unstable" not in record.flags
+
+
+@pytest.mark.parametrize("shape", ["sphere", "cylinder"])
+def test_larger_radius_gives_smaller_flexion(shape):
+    """s = r theta: the same finger wrapped on a larger circle subtends a smaller angle."""
+    radii = (0.038, 0.046, 0.054) if shape == "sphere" else (0.025, 0.035, 0.045)
+    flex = [total_flexion(simulate_grasp(shape, {"radius": r})).mean() for r in radii]
+    assert flex[0] > flex[1] > flex[2], flex
+
+
+def test_cylinder_gives_nearly_equal_angles_across_fingers():
+    """Same radius under every finger: the arcs agree to within the hand's own asymmetry
+    (the little finger's knuckle sits 8.5 mm lower on its metacarpal)."""
+    flex = total_flexion(simulate_grasp("cylinder", {"radius": 0.035}))
+    assert flex.std() / flex.mean() < 0.1, flex
+    cone = total_flexion(simulate_grasp("cone", {"radius": 0.05, "length": 0.17}))
+    assert np.ptp(flex) < np.ptp(cone), (flex, cone)
+
+
+def test_cone_gives_a_monotone_trend_from_apex_to_base():
+    """The base (radius large) is toward the little finger: flexion falls from ff to lf."""
+    flex = total_flexion(
+        simulate_grasp("cone", {"radius": 0.05, "length": 0.17}, controller=CONTACT)
+    )
+    assert flex[0] > flex[2] > flex[3], flex
+    assert flex[0] - flex[3] > 0.5
+
+
+def test_small_object_offset_sideways_leaves_the_far_finger_without_contact():
+    record = simulate_grasp("sphere", {"radius": 0.035}, Pose(offset=(0.03, 0.0, 0.0)))
+    assert "lf" not in record.fingers_in_contact
+    assert "ff" in record.fingers_in_contact
+    assert "finger_without_contact" in record.flags
+
+
+@pytest.mark.parametrize("mode", ["torque", "contact"])
+@pytest.mark.parametrize("shape", [s.name for s in BUILTIN_SHAPES])
+def test_both_modes_terminate_on_every_shape(shape, mode):
+    ctl = ControllerSettings(mode=mode)
+    record = simulate_grasp(shape, controller=ctl)
+    assert "did_not_settle" not in record.flags
+    assert record.sim_time_s < ctl.max_time
+    assert record.fingers_in_contact  # it touched the object at all
+
+
+def test_grasp_ends_when_algorithm_1_says_so_not_after_a_fixed_time():
+    """A bigger cylinder stops the fingers earlier: fewer steps."""
+    small = simulate_grasp("cylinder", {"radius": 0.025}, controller=CONTACT)
+    large = simulate_grasp("cylinder", {"radius": 0.05}, controller=CONTACT)
+    assert large.steps < small.steps
+
+
+def test_same_inputs_give_a_bit_identical_record(tmp_path):
+    a = simulate_grasp("sphere", {"radius": 0.045}, Pose((0.005, 0, 0), 0.1), seed=3)
+    b = simulate_grasp("sphere", {"radius": 0.045}, Pose((0.005, 0, 0), 0.1), seed=3)
+    assert a.equals(b)
+    path = save_record(a, tmp_path / "rec.npz")
+    assert load_record(path).equals(a)
+
+
+def test_record_holds_time_series_contacts_and_final_state():
+    record = simulate_grasp("cylinder")
+    n = len(record.joint_names)
+    assert record.angles.shape == (len(record.time), n) == record.efforts.shape
+    assert np.all(np.diff(record.time) > 0)
+    assert np.allclose(record.angles[-1], record.final_angles)
+    # contacts are on the object's surface: for a centred cylinder, at the radius from its axis
+    assert len(record.contact_force) == len(record.contact_link) > 0
+    normals = record.contact_normal
+    assert np.allclose(np.linalg.norm(normals, axis=1), 1.0, atol=1e-6)
+    assert np.all(record.contact_force >= 0)
+
+
+def test_contact_normals_point_out_of_the_object_in_the_palm_frame():
+    """A centred cylinder lies along x: its outward normals have no x part and point away from
+    its axis, which sits in front of the palm (y < 0)."""
+    record = simulate_grasp("cylinder", {"radius": 0.035})
+    on_fingers = np.isin(record.contact_link, ["ffdistal", "mfdistal", "rfdistal", "lfdistal"])
+    pos, nrm = record.contact_position[on_fingers], record.contact_normal[on_fingers]
+    assert len(pos)
+    axis_y = pos[:, 1] - 0.035 * nrm[:, 1]
+    assert np.all(np.abs(nrm[:, 0]) < 0.2)
+    assert np.all(axis_y < -0.02)
+
+
+@pytest.mark.parametrize(
+    "kwargs, message",
+    [
+        ({"shape": "blob"}, "unknown shape"),
+        ({"shape": "sphere", "params": {"radius": -0.01}}, "out of range"),
+        ({"shape": "sphere", "params": {"radius": 0.5}}, "out of range"),
+        ({"shape": "sphere", "params": {"height": 0.1}}, "no parameter"),
+        ({"shape": "sphere", "pose": Pose(offset=(0, 0.04, 0))}, "inside the open hand"),
+    ],
+)
+def test_bad_input_raises_a_clear_usage_error(kwargs, message):
+    with pytest.raises(UsageError, match=message):
+        simulate_grasp(**kwargs)

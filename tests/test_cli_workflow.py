@@ -1,0 +1,199 @@
+"""The train / evaluate / compare / identify / demo commands: JSON contracts (DESIGN section 5)
+and bad input (exit 2, one line on stderr, nothing already written lost)."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+from test_workflow import synthetic_set
+
+from tactile_bullet.cli import main
+from tactile_bullet.records import save_record
+
+
+def write_records(folder, records):
+    folder.mkdir()
+    for i, rec in enumerate(records):
+        save_record(rec, folder / f"rec{i:03d}.npz")
+    return folder
+
+
+@pytest.fixture(scope="module")
+def folders(tmp_path_factory):
+    root = tmp_path_factory.mktemp("cli")
+    train = write_records(root / "train", synthetic_set(8, seed=11))
+    test = write_records(root / "test", synthetic_set(4, seed=12))
+    return root, train, test
+
+
+@pytest.fixture(scope="module")
+def model_file(folders):
+    root, train, _ = folders
+    path = root / "model.npz"
+    code = main(["train", "--data", str(train), "--classifier", "knn", "--out", str(path)])
+    assert code == 0
+    return path
+
+
+def run_json(capsys, argv):
+    code = main([*argv, "--json"])
+    out, err = capsys.readouterr()
+    assert code == 0, err
+    return json.loads(out)
+
+
+def run_error(capsys, argv) -> str:
+    code = main(argv)
+    out, err = capsys.readouterr()
+    assert code == 2
+    assert err.count("\n") == 1 and "Traceback" not in err
+    return err
+
+
+def test_train_json_names_the_model(folders, capsys, tmp_path):
+    _, train, _ = folders
+    doc = run_json(
+        capsys, ["train", "--data", str(train), "--classifier", "knn",
+                 "--param", "n_neighbors=3", "--out", str(tmp_path / "m.npz")],
+    )  # fmt: skip
+    assert doc["classifier"] == "knn" and doc["descriptor"] == "signature"
+    assert doc["classifier_params"] == {"n_neighbors": 3}
+    assert doc["train_records"] == 24
+    assert (tmp_path / "m.npz").is_file()
+
+
+def test_evaluate_json_contract_and_report_folder(folders, model_file, capsys, tmp_path):
+    _, _, test = folders
+    doc = run_json(
+        capsys,
+        ["evaluate", "--model", str(model_file), "--data", str(test), "--report", str(tmp_path)],
+    )
+    assert set(doc) >= {"accuracy", "classes", "confusion_matrix", "per_class"}
+    cm = np.array(doc["confusion_matrix"])
+    assert cm.sum(axis=1).tolist() == [doc["per_class"][c]["support"] for c in doc["classes"]]
+    assert (tmp_path / "confusion_matrix.png").is_file()
+    assert (tmp_path / "accuracy_by_position.png").is_file()
+
+
+def test_evaluate_prints_a_confusion_matrix_on_a_terminal(folders, model_file, capsys):
+    _, _, test = folders
+    assert main(["evaluate", "--model", str(model_file), "--data", str(test)]) == 0
+    out = capsys.readouterr().out
+    assert "accuracy:" in out and "true \\ predicted" in out
+
+
+def test_compare_json_lists_every_pair(folders, capsys):
+    _, train, test = folders
+    rows = run_json(
+        capsys, ["compare", "--data", str(train), "--test", str(test),
+                 "--descriptor", "signature,raw-joints", "--classifier", "svm,knn"],
+    )  # fmt: skip
+    assert [(r["descriptor"], r["classifier"]) for r in rows] == [
+        ("signature", "svm"), ("signature", "knn"), ("raw-joints", "svm"), ("raw-joints", "knn")
+    ]  # fmt: skip
+    for row in rows:
+        assert set(row) >= {"accuracy", "fit_time_s", "predict_latency_ms"}
+
+
+def test_identify_a_saved_record(folders, model_file, capsys):
+    _, _, test = folders
+    record = sorted(test.glob("*.npz"))[0]
+    doc = run_json(capsys, ["identify", "--model", str(model_file), "--record", str(record)])
+    assert doc["shape"] in doc["probabilities"]
+    assert sum(doc["probabilities"].values()) == pytest.approx(1.0)
+
+
+def test_unknown_classifier_lists_the_installed_ones(folders, capsys, tmp_path):
+    _, train, _ = folders
+    err = run_error(
+        capsys, ["train", "--data", str(train), "--classifier", "svn", "--out",
+                 str(tmp_path / "m.npz")],
+    )  # fmt: skip
+    assert "svn" in err and "svm" in err
+    assert not (tmp_path / "m.npz").exists()
+
+
+def test_missing_or_empty_data_is_a_usage_error(capsys, tmp_path):
+    out = str(tmp_path / "m.npz")
+    assert "does not exist" in run_error(
+        capsys, ["train", "--data", str(tmp_path / "nowhere"), "--out", out]
+    )
+    (tmp_path / "empty").mkdir()
+    assert "no grasp records" in run_error(
+        capsys, ["train", "--data", str(tmp_path / "empty"), "--out", out]
+    )
+
+
+def test_unwritable_out_fails_before_work_and_keeps_old_model(folders, model_file, capsys):
+    _, train, _ = folders
+    before = model_file.read_bytes()
+    err = run_error(
+        capsys, ["train", "--data", str(train), "--out", str(model_file.parent / "no" / "m.npz")]
+    )
+    assert "does not exist" in err
+    assert model_file.read_bytes() == before
+
+
+def test_unreadable_model_file_is_a_usage_error(folders, capsys, tmp_path):
+    _, _, test = folders
+    junk = tmp_path / "junk.npz"
+    junk.write_bytes(b"not a model at all")
+    run_error(capsys, ["evaluate", "--model", str(junk), "--data", str(test)])
+    run_error(capsys, ["evaluate", "--model", str(tmp_path / "absent.npz"), "--data", str(test)])
+
+
+def test_data_with_none_of_the_models_shapes(model_file, capsys, tmp_path):
+    folder = write_records(tmp_path / "tori", synthetic_set(2, seed=13, shapes=("torus",)))
+    err = run_error(capsys, ["evaluate", "--model", str(model_file), "--data", str(folder)])
+    assert "none of the model's classes" in err
+
+
+def test_model_whose_descriptor_is_not_installed(folders, capsys, tmp_path):
+    from tactile_bullet import plugins
+    from tactile_bullet.descriptors import SignatureDescriptor
+    from tactile_bullet.hookspecs import hookimpl
+
+    class Renamed(SignatureDescriptor):
+        name = "renamed-signature"
+
+    class Plugin:
+        @hookimpl
+        def register_descriptors(self, register):
+            register("renamed-signature", Renamed)
+
+    _, train, test = folders
+    name = plugins.register_plugin(Plugin(), "tmp-descriptor-plugin")
+    try:
+        model = tmp_path / "m.npz"
+        argv = ["train", "--data", str(train), "--descriptor", "renamed-signature"]
+        assert main([*argv, "--classifier", "knn", "--out", str(model)]) == 0
+    finally:
+        plugins.unregister_plugin(name)
+    capsys.readouterr()
+    err = run_error(capsys, ["evaluate", "--model", str(model), "--data", str(test)])
+    assert "renamed-signature" in err
+
+
+def test_bad_input_in_a_fresh_process_prints_one_line(tmp_path):
+    entry = "import sys; from tactile_bullet.cli import main; sys.exit(main())"
+    cmd = [sys.executable, "-c", entry, "compare", "--data", str(tmp_path)]
+    proc = subprocess.run([*cmd, "--classifier", "svm,,knn"], capture_output=True, text=True)
+    assert proc.returncode == 2
+    assert proc.stderr.count("\n") == 1 and "Traceback" not in proc.stderr
+
+
+@pytest.mark.slow
+def test_quick_demo_end_to_end(capsys, tmp_path):
+    doc = run_json(capsys, ["demo", "--quick", "--out", str(tmp_path / "demo"), "--seed", "3"])
+    assert set(doc) >= {"accuracy", "classes", "confusion_matrix", "train_records",
+                        "test_records", "report"}  # fmt: skip
+    assert sorted(doc["classes"]) == sorted(["cone", "torus", "sphere", "hyperboloid", "cylinder"])
+    cm = np.array(doc["confusion_matrix"])
+    assert cm.sum() == doc["test_records"] > 0
+    report = tmp_path / "demo" / "report"
+    for name in ("confusion_matrix.png", "signatures.png", "report.json", "comparison.json"):
+        assert (report / name).is_file()

@@ -449,8 +449,8 @@ def simulate_set(
 def demo(
     out: str | os.PathLike = "tactile-bullet-demo",
     seed: int = 0,
-    train_per_shape: int = 30,
-    test_per_shape: int = 16,
+    train_per_shape: int = 24,
+    test_per_shape: int = 12,
     workers: int = 2,
     classifiers: Sequence[str] = DEMO_CLASSIFIERS,
     show: bool = False,

@@ -1,0 +1,109 @@
+"""Latency of identifying one grasp, per descriptor x classifier, and CLI start time.
+
+Identification on a robot sees one grasp at a time, so the figure that matters is the time
+from a GraspRecord to a shape name for a single grasp: descriptor, then prediction. Each pair
+is trained on the same records, then timed on single records (median of ``--repeat`` runs
+over the test records). Target: <= 5 ms per grasp. ``tactile-bullet --help`` is timed in fresh
+processes (median); target < 1 s.
+
+    python tools/bench_predict.py                  # simulates a small set (about a minute)
+    python tools/bench_predict.py --data DIR       # or reads a dataset
+"""
+
+from __future__ import annotations
+
+import argparse
+import shutil
+import statistics
+import subprocess
+import sys
+import time
+
+import numpy as np
+
+LATENCY_TARGET_MS = 5.0
+START_TARGET_S = 1.0
+
+
+def cli_start_seconds(runs: int) -> list[float]:
+    exe = shutil.which("tactile-bullet")
+    cmd = [exe] if exe else [sys.executable, "-c", "from tactile_bullet.cli import main; main()"]
+    times = []
+    for _ in range(runs):
+        start = time.perf_counter()
+        subprocess.run([*cmd, "--help"], check=True, capture_output=True)
+        times.append(time.perf_counter() - start)
+    return times
+
+
+def load_records(args):
+    from tactile_bullet import workflow
+
+    if args.data:
+        return workflow.records_from(args.data)
+    rng = np.random.default_rng(args.seed)
+    sim = workflow.simulate_set(
+        args.per_shape, workflow.TRAIN_FRACTIONS, workflow.TRAIN_OFFSETS, rng, args.workers
+    )
+    return sim.records
+
+
+def median_ms(fn, items, repeat: int) -> float:
+    times = []
+    for _ in range(repeat):
+        for item in items:
+            start = time.perf_counter()
+            fn(item)
+            times.append(time.perf_counter() - start)
+    return 1000.0 * statistics.median(times)
+
+
+def main() -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--data", help="dataset to train and time on (default: simulate)")
+    parser.add_argument("--per-shape", type=int, default=6, help="grasps per shape to simulate")
+    parser.add_argument("--workers", type=int, default=2)
+    parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--repeat", type=int, default=5, help="timing passes over the records")
+    parser.add_argument("--start-runs", type=int, default=7, help="CLI start measurements")
+    args = parser.parse_args()
+
+    from tactile_bullet import plugins, workflow
+
+    starts = cli_start_seconds(args.start_runs)
+    print(
+        f"CLI start (tactile-bullet --help): median {statistics.median(starts):.3f} s over "
+        f"{len(starts)} runs (min {min(starts):.3f}, max {max(starts):.3f}); "
+        f"target < {START_TARGET_S:g} s"
+    )
+
+    records = load_records(args)
+    train, test = workflow.split(records, 0.3, args.seed)
+    y = workflow.labels_of(train)
+    print(f"\n{len(train)} training and {len(test)} timed grasps; one grasp at a time")
+    head = f"{'descriptor':<18}{'classifier':<16}{'descriptor ms':>14}{'predict ms':>12}"
+    print(head + f"{'total ms':>10}  target")
+    for dname in plugins.descriptor_names():
+        desc = plugins.get_descriptor(dname)
+        x_train = desc.transform(train)
+        desc_ms = median_ms(lambda r, d=desc: d.transform([r]), test, args.repeat)
+        for cname in plugins.classifier_names():
+            if not plugins.compatible(dname, cname):
+                continue
+            try:
+                estimator = plugins.get_classifier(cname).fit(x_train, y)
+            except Exception as exc:  # noqa: BLE001 - a benchmark reports and goes on
+                print(f"{dname:<18}{cname:<16}  failed: {type(exc).__name__}: {exc}")
+                continue
+            rows = [desc.transform([r]) for r in test]
+            pred_ms = median_ms(estimator.predict, rows, args.repeat)
+            total = desc_ms + pred_ms
+            verdict = "ok" if total <= LATENCY_TARGET_MS else "OVER"
+            print(
+                f"{dname:<18}{cname:<16}{desc_ms:>14.3f}{pred_ms:>12.3f}{total:>10.3f}  {verdict}"
+            )
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -124,6 +124,9 @@ def _run(scene, spec, values, pose, ctl, seed, scene_hook) -> GraspRecord:
     targets = np.zeros(len(joints))
     forces = np.full(len(joints), ctl.motor_force)
     forces[:2] = 0.0  # the wrist is locked by the scene (see Scene.lock_wrist), not motored
+    held = [n for n in JOINT_NAMES if n[2:] in ("J4", "J5") and not n.startswith("TH")]
+    scene.lock_joints(held)
+    forces[[JOINT_NAMES.index(n) for n in held]] = 0.0
     damping = np.array([c.getJointInfo(hand, j)[6] for j in joints])
     fingers = [_Finger(f, scene) for f in LONG_FINGERS]
     upper = scene.upper

@@ -252,6 +252,13 @@ class Scene:
         for name, value in pose.items():
             self.client.resetJointState(self.hand, self.joint_index[name], value, 0.0)
 
+    def lock_joints(self, names) -> None:
+        """Zero-width limits and no motor: joints Algorithm 1 never moves (spread J4, LFJ5)
+        cost the solver nothing this way, where a motor holding them costs a constraint row."""
+        for name in names:
+            j = self.joint_index[name]
+            self.client.changeDynamics(self.hand, j, jointLowerLimit=0.0, jointUpperLimit=0.0)
+
     def lock_wrist(self) -> None:
         """Hold the palm where the arm put it (the thesis' hand was mounted and its wrist took
         no part in the grasp). The wrist joints get zero-width limits and no motor: a stiff

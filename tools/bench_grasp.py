@@ -1,0 +1,91 @@
+"""Benchmark: grasps per second per core, against Bullet's own ceiling.
+
+For each shape and controller mode, on one core (this process):
+- grasps/s: full simulate_grasp calls (scene build, Algorithm 1, record), best of --repeat;
+- steps/grasp: physics steps Algorithm 1 needed;
+- ceiling: Bullet's bare step rate with the hand holding that object (stepSimulation in a loop,
+  no Python work between steps) divided by steps/grasp: the most any controller written
+  around these steps could reach;
+- ratio = grasps/s / ceiling;
+- peak RSS of this process.
+
+    python tools/bench_grasp.py [--repeat 3] [--shapes cone,sphere] [--modes torque]
+"""
+
+from __future__ import annotations
+
+import argparse
+import resource
+import time
+
+import numpy as np
+
+from tactile_bullet.grasp import simulate_grasp
+from tactile_bullet.records import ControllerSettings
+from tactile_bullet.shapes import BUILTIN_SHAPES
+
+CEILING_STEPS = 240
+
+
+def bare_step_rate(scene) -> float:
+    """Steps/s of Bullet alone with the hand closed on the object (contacts included)."""
+    client = scene.client
+    start = time.perf_counter()
+    for _ in range(CEILING_STEPS):
+        client.stepSimulation()
+    return CEILING_STEPS / (time.perf_counter() - start)
+
+
+def bench(shape, mode: str, repeat: int) -> dict:
+    ctl = ControllerSettings(mode=mode)
+    walls, rates = [], []
+    record = None
+    for _ in range(repeat):
+        start = time.perf_counter()
+        record = simulate_grasp(shape, controller=ctl)
+        walls.append(time.perf_counter() - start)
+    simulate_grasp(shape, controller=ctl, scene_hook=lambda s: rates.append(bare_step_rate(s)))
+    gps = 1.0 / min(walls)
+    ceiling = rates[0] / record.steps
+    return {
+        "shape": shape.name,
+        "mode": mode,
+        "grasps_per_s": gps,
+        "steps": record.steps,
+        "bare_steps_per_s": rates[0],
+        "ceiling_grasps_per_s": ceiling,
+        "ratio": gps / ceiling,
+        "fingers": "".join(f[0] for f in record.fingers_in_contact),
+    }
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--repeat", type=int, default=3)
+    parser.add_argument("--shapes", default=",".join(s.name for s in BUILTIN_SHAPES))
+    parser.add_argument("--modes", default="torque,contact")
+    args = parser.parse_args()
+    table = {s.name: s for s in BUILTIN_SHAPES}
+    rows = []
+    print(f"{'shape':<18}{'mode':<8}{'grasps/s':>9}{'steps':>7}{'bare st/s':>10}"
+          f"{'ceiling':>9}{'ratio':>7}  fingers")  # fmt: skip
+    for name in args.shapes.split(","):
+        for mode in args.modes.split(","):
+            row = bench(table[name], mode, args.repeat)
+            rows.append(row)
+            print(f"{row['shape']:<18}{row['mode']:<8}{row['grasps_per_s']:>9.2f}{row['steps']:>7}"
+                  f"{row['bare_steps_per_s']:>10.0f}{row['ceiling_grasps_per_s']:>9.2f}"
+                  f"{row['ratio']:>7.2f}  {row['fingers']}")  # fmt: skip
+    for mode in args.modes.split(","):
+        sel = [r for r in rows if r["mode"] == mode]
+        gps = np.mean([r["grasps_per_s"] for r in sel])
+        ratio = np.mean([r["ratio"] for r in sel])
+        steps = np.mean([r["steps"] for r in sel])
+        print(f"mean {mode}: {gps:.2f} grasps/s per core, {steps:.0f} steps/grasp, "
+              f"{ratio:.2f} of the ceiling")  # fmt: skip
+    peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
+    print(f"peak memory of this simulation process: {peak:.0f} MiB")
+
+
+if __name__ == "__main__":
+    main()

@@ -197,3 +197,19 @@ def test_quick_demo_end_to_end(capsys, tmp_path):
     report = tmp_path / "demo" / "report"
     for name in ("confusion_matrix.png", "signatures.png", "report.json", "comparison.json"):
         assert (report / name).is_file()
+
+
+def test_identify_simulates_a_new_grasp(model_file, capsys):
+    argv = ["identify", "--model", str(model_file), "--shape", "sphere", "--offset", "0.003,0,0"]
+    doc = run_json(capsys, argv)
+    assert doc["true_shape"] == "sphere"
+    assert doc["shape"] in doc["probabilities"]
+    assert doc["grasp"]["pose"]["offset"] == [0.003, 0.0, 0.0]
+
+
+def test_identify_rejects_a_bad_pose_or_size(model_file, capsys):
+    base = ["identify", "--model", str(model_file), "--shape", "sphere"]
+    assert "--offset" in run_error(capsys, [*base, "--offset", "1,2"])
+    assert "out of range" in run_error(capsys, [*base, "--param", "radius=2"])
+    assert "unknown shape" in run_error(capsys, ["identify", "--model", str(model_file),
+                                                 "--shape", "dodecahedron"])  # fmt: skip

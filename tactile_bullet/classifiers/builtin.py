@@ -1,0 +1,49 @@
+"""Built-in plugin: registers ``svm``, ``knn``, ``som``, ``dtw-template`` and, when its module
+is present, ``neural-forest``. Factories import their estimator on first use, so loading the
+registry does not import scikit-learn."""
+
+from __future__ import annotations
+
+import importlib.util
+
+from ..hookspecs import hookimpl
+
+
+def svm(**params):
+    from .svm import SVMClassifier
+
+    return SVMClassifier(**params)
+
+
+def knn(**params):
+    from .knn import KNNClassifier
+
+    return KNNClassifier(**params)
+
+
+def som(**params):
+    from .som import SOMClassifier
+
+    return SOMClassifier(**params)
+
+
+def dtw_template(**params):
+    from .dtw_template import DTWTemplateClassifier
+
+    return DTWTemplateClassifier(**params)
+
+
+def neural_forest(**params):
+    from ..neural_forest import NeuralForestClassifier
+
+    return NeuralForestClassifier(**params)
+
+
+@hookimpl
+def register_classifiers(register):
+    register("svm", svm)
+    register("knn", knn)
+    register("som", som)
+    register("dtw-template", dtw_template)
+    if importlib.util.find_spec("tactile_bullet.neural_forest") is not None:
+        register("neural-forest", neural_forest)

@@ -5,6 +5,11 @@ turned about the palm normal, because a tilted axis meets each finger at a diffe
 The relation is calibrated on simulated grasps of known rotation (``tools/rotation_calibration
 .py``): a least-squares line alpha = slope * rotation + intercept, inverted to estimate the
 rotation. The fit is stored as package data (``data/rotation_calibration.json``).
+
+alpha at zero rotation is not zero and depends on the shape (the hand's own knuckle heights
+tilt every signature, by an amount that depends on the object), so the calibration keeps one
+line per calibrated shape besides the pooled one; the estimate uses the shape's own line when
+the shape is given (e.g. the identified pattern) and the pooled line otherwise.
 """
 
 from __future__ import annotations
@@ -39,8 +44,12 @@ class RotationCalibration:
     shapes: tuple[str, ...] = ()
     per_shape: Mapping[str, Mapping[str, float]] = field(default_factory=dict)
 
-    def estimate(self, alpha_deg: float) -> float:
-        """Rotation (deg) that would produce ``alpha_deg``."""
+    def estimate(self, alpha_deg: float, shape: str | None = None) -> float:
+        """Rotation (deg) that would produce ``alpha_deg`` (with ``shape``'s own line if
+        the calibration has one)."""
+        own = self.per_shape.get(shape) if shape is not None else None
+        if own and np.isfinite(own["slope"]) and own["slope"] != 0:
+            return (float(alpha_deg) - own["intercept"]) / own["slope"]
         return (float(alpha_deg) - self.intercept) / self.slope
 
 
@@ -161,12 +170,15 @@ def load_calibration() -> RotationCalibration | None:
 
 
 def estimate_rotation_deg(
-    alpha_deg: float, calibration: RotationCalibration | None = None
+    alpha_deg: float,
+    calibration: RotationCalibration | None = None,
+    shape: str | None = None,
 ) -> float | None:
     """Object rotation (deg) about the palm normal from a measured alpha (deg), with the
-    packaged calibration unless one is given; None when no calibration exists."""
+    packaged calibration unless one is given (``shape``'s own line where it has one); None
+    when no calibration exists."""
     value = float(alpha_deg)
     if not np.isfinite(value):
         raise UsageError(f"alpha must be finite, got {alpha_deg!r}")
     cal = load_calibration() if calibration is None else calibration
-    return None if cal is None else cal.estimate(value)
+    return None if cal is None else cal.estimate(value, shape)

@@ -72,11 +72,6 @@ class Signature:
         """Mean of both lines' alpha: the rotation cue ``rotation.py`` calibrates."""
         return 0.5 * (self.alpha_lower + self.alpha_upper)
 
-    @property
-    def bulge(self) -> float:
-        """Mean of both lines' bulge: the integral rule's input."""
-        return 0.5 * (self.bulge_lower + self.bulge_upper)
-
     def vector(self) -> np.ndarray:
         """Lower then upper enhanced line as one feature vector (400 values)."""
         return np.concatenate([self.lower, self.upper])

@@ -7,24 +7,24 @@ from tactile_bullet.hand import PHALANX_LENGTHS
 from tactile_bullet.patterns import (
     PAD_RADIUS,
     Thresholds,
+    arc_angles,
     default_library,
     dtw_distance,
     identify,
     pattern,
     theoretical_angles,
-    wrap_angles,
 )
 from tactile_bullet.rotation import estimate_rotation_deg, fit_calibration
 
 
-def test_wrap_angles_follow_eq_2_3_on_large_circles():
+def test_arc_angles_follow_eq_2_3_on_large_circles():
     r = np.array([0.5, 1.0])
-    total = wrap_angles(r).sum(axis=0)
+    total = arc_angles(r).sum(axis=0)
     np.testing.assert_allclose(total, sum(PHALANX_LENGTHS) / (r + PAD_RADIUS), rtol=1e-3)
 
 
-def test_wrap_angles_shrink_as_the_circle_grows_and_max_out_without_object():
-    theta = wrap_angles(np.array([0.0, 0.02, 0.04, 0.08]))
+def test_arc_angles_shrink_as_the_circle_grows_and_max_out_without_object():
+    theta = arc_angles(np.array([0.0, 0.02, 0.04, 0.08]))
     assert np.all(theta[:, 0] == pytest.approx(np.pi / 2))
     assert np.all(np.diff(theta[:, 1:], axis=1) < 0)
 
@@ -32,9 +32,8 @@ def test_wrap_angles_shrink_as_the_circle_grows_and_max_out_without_object():
 def test_patterns_have_the_thesis_shapes():
     lib = default_library()
     assert set(lib) == {"cone", "torus", "sphere", "hyperboloid", "cylinder"}
-    assert np.all(lib["cylinder"].upper == 0)
-    assert lib["hyperboloid"].bulge > 0  # the waist: middle fingers close more
-    assert lib["sphere"].bulge < lib["torus"].bulge < 0
+    assert lib["hyperboloid"].bulge_upper > lib["cylinder"].bulge_upper  # the waist
+    assert lib["sphere"].bulge_upper < 0 and lib["torus"].bulge_upper < 0
     assert lib["cone"].alpha_deg < -5  # the taper is a slope, removed by the rotation step
 
 
@@ -44,11 +43,28 @@ def test_dtw_distance_is_zero_on_itself_and_grows_with_difference():
     assert 0 < dtw_distance(x, 0.5 * x) < dtw_distance(x, -x)
 
 
+def _between_pair() -> Thresholds:
+    lib = default_library()
+    mid = 0.5 * (lib["hyperboloid"].bulge_upper + lib["cylinder"].bulge_upper)
+    return Thresholds(integral=mid)
+
+
 @pytest.mark.parametrize("name", ["cone", "hyperboloid", "cylinder"])
 def test_a_pattern_identifies_as_its_own_shape(name):
-    result = identify(pattern(name), thresholds=Thresholds())
+    result = identify(pattern(name), thresholds=_between_pair())
     assert result.name == name
     assert result.distances[name] == pytest.approx(0, abs=1e-9)
+
+
+def test_the_integral_rule_decides_between_hyperboloid_and_cylinder():
+    """Their enhanced lines nearly coincide once the hand's knuckles are modelled; the bulge
+    of the upper line (how far the middle fingers close past the outer ones) decides."""
+    lib = default_library()
+    assert dtw_distance(lib["hyperboloid"].upper, lib["cylinder"].upper) < 1
+    low = identify(lib["hyperboloid"], thresholds=Thresholds(integral=1.0))
+    assert low.integral_rule and low.name == "cylinder"
+    high = identify(lib["cylinder"], thresholds=Thresholds(integral=-1.0))
+    assert high.name == "hyperboloid"
 
 
 def test_beyond_the_correspondence_threshold_the_shape_is_unknown():
@@ -71,3 +87,37 @@ def test_rotation_calibration_inverts_a_linear_relation():
     assert estimate_rotation_deg(0.4 * 12 - 1.5, cal) == pytest.approx(12)
     with pytest.raises(ValueError):
         fit_calibration([0, 0, 0], [1, 2, 3])
+
+
+@pytest.fixture(scope="module")
+def grasps():
+    from tactile_bullet.grasp import simulate_grasp
+
+    return {
+        "thin cylinder": simulate_grasp("cylinder", {"radius": 0.025, "length": 0.12}),
+        "thick cylinder": simulate_grasp("cylinder", {"radius": 0.04, "length": 0.14}),
+        "cone": simulate_grasp("cone"),
+    }
+
+
+def test_simulated_same_shape_at_two_sizes_is_closer_than_another_shape(grasps):
+    from tactile_bullet.patterns import signature_distance
+    from tactile_bullet.signature import signature_of
+
+    thin, thick, cone = (
+        signature_of(grasps[k]) for k in ("thin cylinder", "thick cylinder", "cone")
+    )
+    assert signature_distance(thin, thick) < signature_distance(thin, cone)
+    assert signature_distance(thin, thick) < signature_distance(thick, cone)
+
+
+def test_signature_summary_has_the_grasp_json_fields(grasps):
+    import json
+
+    from tactile_bullet.patterns import signature_summary
+
+    summary = signature_summary(grasps["cone"])
+    assert set(summary) == {"alpha_deg", "rotation_estimate_deg", "nearest_pattern", "distances"}
+    assert set(summary["distances"]) == set(default_library())
+    assert summary["nearest_pattern"] in {*default_library(), "unknown"}
+    json.dumps(summary)  # plain floats and strings only

@@ -46,7 +46,7 @@ def test_cylinder_gives_a_flat_signature():
     sig = signature_from_angles(wrapped([0.035] * 4))
     assert np.all(sig.lower == 0) and np.all(sig.upper == 0)
     assert sig.alpha_lower == pytest.approx(0, abs=1e-9)
-    assert sig.bulge == pytest.approx(0, abs=1e-9)
+    assert sig.bulge_upper == pytest.approx(0, abs=1e-9)
 
 
 def test_cone_gives_monotone_sloped_raw_lines():

@@ -1,0 +1,61 @@
+"""Speed of the signature and of the training-free identification, per grasp.
+
+Prints the median time (over repeats, after a warm-up) of:
+- the signature from final joint angles (FCI, cubic upscaling, two enhanced lines, bulges);
+- one DTW distance between two 200-point lines (dtaidistance, C path, 10% band);
+- identification against the five patterns (10 DTW distances and the integral rule);
+
+Usage: python tools/bench_signature.py [--repeat 2000]
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
+
+from tactile_bullet.patterns import default_library, dtw_distance, identify  # noqa: E402
+from tactile_bullet.signature import signature_from_angles  # noqa: E402
+
+
+def per_call(fn, args_list, repeat: int) -> float:
+    """Median seconds per call over ``repeat`` calls cycling through ``args_list``."""
+    for a in args_list[:10]:
+        fn(*a)
+    times = np.empty(repeat)
+    for k in range(repeat):
+        a = args_list[k % len(args_list)]
+        t0 = time.perf_counter()
+        fn(*a)
+        times[k] = time.perf_counter() - t0
+    return float(np.median(times))
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--repeat", type=int, default=2000)
+    args = ap.parse_args()
+    rng = np.random.default_rng(0)
+    angles = [(rng.uniform(0.1, 1.4, (3, 4)),) for _ in range(64)]
+    sigs = [signature_from_angles(a) for (a,) in angles]
+    lib = default_library()
+    from dtaidistance import dtw
+
+    print(f"dtaidistance C library: {'yes' if dtw.try_import_c() else 'NO (pure Python)'}")
+    t_sig = per_call(signature_from_angles, angles, args.repeat)
+    pairs = [(s.upper, r.upper) for s in sigs[:8] for r in lib.values()]
+    t_dtw = per_call(dtw_distance, pairs, args.repeat)
+    t_id = per_call(lambda s: identify(s, lib), [(s,) for s in sigs], args.repeat // 4)
+    print(f"signature from angles:  {t_sig * 1e3:.3f} ms per grasp")
+    print(f"DTW, 200-point lines:   {t_dtw * 1e3:.3f} ms per pair")
+    print(f"identify (5 patterns):  {t_id * 1e3:.3f} ms per grasp")
+    print(f"signature + identify:   {(t_sig + t_id) * 1e3:.3f} ms per grasp")
+
+
+if __name__ == "__main__":
+    main()

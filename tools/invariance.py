@@ -1,0 +1,337 @@
+"""Size and position invariance of the signature, and the training-free identification rate.
+
+Simulates the five thesis shapes over a grid of sizes (every parameter at the same fraction of
+its range) and offsets of the object along O-O' (x) and along the fingers (z), computes each
+grasp's signature and its DTW distances to the five theoretical patterns, and reports:
+
+- the nearest-pattern identification rate, overall and per size and offset (thesis Table 2.2's
+  analogue: the ranges where identification holds), printed and written to
+  docs/signature_invariance.{json,md};
+- the distance of each shape's signatures to every pattern (thesis Fig. 2.21) and the same for
+  the modified shapes ovoid and hexagonal pyramid (Fig. 2.27), in docs/img/;
+- the identification thresholds (integral rule: the mean of the hyperboloid's and cylinder's
+  mean upper-line bulge, as the thesis set it; correspondence: the largest distance of a
+  correct match),
+  written to tactile_bullet/data/identification.json for ``patterns.identify``.
+
+Usage: python tools/invariance.py [--workers 2] [--cache /tmp/invariance.json] [--quick]
+(about 1 min on 2 cores; --cache reuses simulated angles between runs).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+import time
+from collections import Counter, defaultdict
+from multiprocessing import Pool
+from pathlib import Path
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parent.parent
+sys.path.insert(0, str(ROOT))
+
+from tactile_bullet.patterns import (  # noqa: E402
+    INTEGRAL_PAIR,
+    Thresholds,
+    default_library,
+    identify,
+)
+from tactile_bullet.shapes import BUILTIN_SHAPES, THESIS_SHAPES  # noqa: E402
+from tactile_bullet.signature import signature_from_angles  # noqa: E402
+
+TABLE = {s.name: s for s in BUILTIN_SHAPES}
+SIZE_FRACTIONS = (0.0, 0.25, 0.5, 0.75, 1.0)
+OFFSETS_X = (-0.01, 0.0, 0.01)
+OFFSETS_Z = (-0.01, 0.0, 0.01)
+MODIFIED = ("ovoid", "hexagonal_pyramid")
+HOLDS = 0.9
+"""Identification rate from which a size or offset counts as inside the valid range."""
+
+
+def sized(name: str, t: float) -> dict[str, float] | None:
+    """Every parameter at fraction t of its range; None when the combination is invalid."""
+    spec = TABLE[name]
+    params = {k: p.min + t * (p.max - p.min) for k, p in spec.params.items()}
+    try:
+        return spec.resolve(params)
+    except ValueError:
+        return None
+
+
+def grasp_job(job: tuple) -> dict:
+    """One grasp (run in a worker): its final FCI angles or why it failed."""
+    from tactile_bullet.grasp import simulate_grasp
+    from tactile_bullet.records import Pose
+
+    name, t, params, offset = job
+    out = {"shape": name, "t": t, "params": params, "offset": list(offset)}
+    try:
+        rec = simulate_grasp(TABLE[name], params, Pose(offset))
+    except ValueError as exc:  # a pose the scene refuses (object inside the open hand)
+        out["error"] = str(exc)
+        return out
+    out["angles"] = rec.fci_angles().tolist()
+    out["flags"] = list(rec.flags)
+    out["fingers"] = list(rec.fingers_in_contact)
+    return out
+
+
+def jobs(quick: bool) -> list[tuple]:
+    fractions = (0.0, 0.5, 1.0) if quick else SIZE_FRACTIONS
+    todo = []
+    for name in (*THESIS_SHAPES, *MODIFIED):
+        offsets = [(x, 0.0, z) for x in OFFSETS_X for z in OFFSETS_Z]
+        if name in MODIFIED or quick:
+            offsets = [(0.0, 0.0, 0.0)]
+        for t in fractions:
+            params = sized(name, t)
+            if params is not None:
+                todo.extend((name, t, params, off) for off in offsets)
+    return todo
+
+
+def simulate(todo: list[tuple], workers: int, cache: Path | None) -> list[dict]:
+    key = lambda j: json.dumps([j[0], j[1], j[3]])  # noqa: E731
+    done: dict[str, dict] = {}
+    if cache is not None and cache.is_file():
+        for row in json.loads(cache.read_text()):
+            done[json.dumps([row["shape"], row["t"], row["offset"]])] = row
+    missing = [j for j in todo if key((j[0], j[1], j[2], list(j[3]))) not in done]
+    if missing:
+        start = time.perf_counter()
+        with Pool(workers) as pool:
+            for row in pool.imap(grasp_job, missing, chunksize=2):
+                done[json.dumps([row["shape"], row["t"], row["offset"]])] = row
+        rate = len(missing) / (time.perf_counter() - start)
+        print(f"simulated {len(missing)} grasps at {rate:.1f} grasps/s ({workers} workers)")
+    rows = [done[key((j[0], j[1], j[2], list(j[3])))] for j in todo]
+    if cache is not None:
+        cache.write_text(json.dumps(rows))
+    return rows
+
+
+def analyse(rows: list[dict]) -> dict:
+    """Distances, nearest patterns and both thresholds from the simulated grasps."""
+    lib = default_library()
+    for row in rows:
+        if "angles" not in row:
+            continue
+        sig = signature_from_angles(np.array(row["angles"]))
+        plain = identify(sig, lib, Thresholds())
+        row["distances"] = plain.distances
+        row["nearest"] = plain.nearest
+        row["bulge"] = sig.bulge_upper
+    graspable = [r for r in rows if "angles" in r]
+    means = {
+        n: float(np.mean([r["bulge"] for r in graspable if r["shape"] == n])) for n in INTEGRAL_PAIR
+    }
+    integral = float(np.mean(list(means.values())))
+    th = Thresholds(correspondence=float("inf"), integral=integral, source="invariance")
+    for row in graspable:
+        sig_bulge = row["bulge"]
+        name = row["nearest"]
+        if name in INTEGRAL_PAIR:
+            name = INTEGRAL_PAIR[0] if sig_bulge > th.integral else INTEGRAL_PAIR[1]
+        row["identified"] = name
+    correct = [
+        r["distances"][r["shape"]]
+        for r in graspable
+        if r["shape"] in THESIS_SHAPES and r["identified"] == r["shape"]
+    ]
+    return {
+        "integral_threshold": integral,
+        "bulge_means": means,
+        "correspondence_threshold": float(np.max(correct)) if correct else float("inf"),
+    }
+
+
+def rate(rows: list[dict]) -> tuple[float, int]:
+    got = [r for r in rows if "identified" in r]
+    if not got:
+        return float("nan"), 0
+    return float(np.mean([r["identified"] == r["shape"] for r in got])), len(got)
+
+
+def ranges(rows: list[dict]) -> dict:
+    """Per shape: identification rate per size fraction and per offset, and the valid ranges."""
+    out = {}
+    for name in THESIS_SHAPES:
+        mine = [r for r in rows if r["shape"] == name]
+        spec = TABLE[name]
+        by_size = {}
+        for t in sorted({r["t"] for r in mine}):
+            rt, n = rate([r for r in mine if r["t"] == t])
+            by_size[t] = {"rate": rt, "n": n, "params": sized(name, t)}
+        by_offset = {}
+        for off in sorted({tuple(r["offset"]) for r in mine}):
+            rt, n = rate([r for r in mine if tuple(r["offset"]) == off])
+            by_offset[",".join(f"{v * 1000:+.0f}" for v in off)] = {"rate": rt, "n": n}
+        good = [t for t, v in by_size.items() if v["n"] and v["rate"] >= HOLDS]
+        valid_params = (
+            {k: [sized(name, min(good))[k], sized(name, max(good))[k]] for k in spec.params}
+            if good
+            else None
+        )
+        failed = sum(1 for r in mine if "angles" not in r)
+        out[name] = {
+            "rate": rate(mine)[0],
+            "grasps": len(mine) - failed,
+            "refused_poses": failed,
+            "by_size_fraction": by_size,
+            "by_offset_mm": by_offset,
+            "sizes_where_identification_holds": valid_params,
+        }
+    return out
+
+
+def confusion(rows: list[dict]) -> dict[str, dict[str, int]]:
+    table: dict[str, Counter] = defaultdict(Counter)
+    for r in rows:
+        if "identified" in r:
+            table[r["shape"]][r["identified"]] += 1
+    return {k: dict(v) for k, v in table.items()}
+
+
+def plot_distances(rows: list[dict], shapes, path: Path, title: str) -> None:
+    """Per measured shape, the DTW distance of its signatures to each theoretical pattern."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    patterns = list(THESIS_SHAPES)
+    fig, axes = plt.subplots(1, len(shapes), figsize=(2.6 * len(shapes), 2.8), sharey=True)
+    axes = np.atleast_1d(axes)
+    for ax, name in zip(axes, shapes, strict=True):
+        data = [[r["distances"][p] for r in rows if r["shape"] == name and "distances" in r]
+                for p in patterns]  # fmt: skip
+        if data and data[0]:
+            ax.boxplot(data, widths=0.6, showfliers=True, flierprops={"markersize": 2})
+        ax.set_xticks(range(1, len(patterns) + 1), [p[:5] for p in patterns], rotation=60)
+        ax.set_title(name.replace("_", " "), fontsize=9)
+        ax.tick_params(labelsize=7)
+    axes[0].set_ylabel("DTW distance to pattern", fontsize=8)
+    fig.suptitle(title, fontsize=9)
+    fig.tight_layout()
+    fig.savefig(path, dpi=90)
+    plt.close(fig)
+
+
+def markdown(report: dict) -> str:
+    lines = [
+        "# Signature invariance (generated by tools/invariance.py)",
+        "",
+        f"Nearest-pattern identification without training: {report['overall_rate']:.1%} of "
+        f"{report['grasps']} grasps of the five thesis shapes over sizes (every parameter at "
+        f"0, 25, 50, 75, 100% of its range) and offsets x, z in {{-10, 0, +10}} mm; inside "
+        f"the valid ranges below: {report['rate_in_valid_ranges']:.1%}.",
+        f"Integral threshold (bulge): {report['thresholds']['integral_threshold']:.4f}; "
+        f"correspondence threshold: {report['thresholds']['correspondence_threshold']:.2f}.",
+        "",
+        "| shape | rate | by size fraction (0 .. 1) | sizes where identification holds (>= 90%) |",
+        "|---|---|---|---|",
+    ]
+    for name, v in report["shapes"].items():
+        sizes = " ".join(
+            f"{s['rate']:.0%}" if s["n"] else "-" for s in v["by_size_fraction"].values()
+        )
+        valid = v["sizes_where_identification_holds"]
+        text = (
+            ", ".join(f"{k} {lo * 1000:.0f}-{hi * 1000:.0f} mm" for k, (lo, hi) in valid.items())
+            if valid
+            else "none"
+        )
+        lines.append(f"| {name} | {v['rate']:.0%} | {sizes} | {text} |")
+    lines += ["", "Rate by offset (x, y, z in mm):", ""]
+    offsets = next(iter(report["shapes"].values()))["by_offset_mm"].keys()
+    lines.append("| shape | " + " | ".join(offsets) + " |")
+    lines.append("|---" * (len(offsets) + 1) + "|")
+    for name, v in report["shapes"].items():
+        cells = [
+            f"{v['by_offset_mm'][o]['rate']:.0%}" if v["by_offset_mm"].get(o, {}).get("n") else "-"
+            for o in offsets
+        ]
+        lines.append(f"| {name} | " + " | ".join(cells) + " |")
+    lines += ["", "Confusion (rows: true shape, columns: identified):", ""]
+    for name, row in report["confusion"].items():
+        lines.append(f"- {name}: {row}")
+    lines += ["", "Modified shapes, mean DTW distance to each pattern:", ""]
+    for name, d in report["modified_shapes"].items():
+        lines.append(f"- {name}: " + ", ".join(f"{k} {v:.1f}" for k, v in d.items()))
+    return "\n".join(lines) + "\n"
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--workers", type=int, default=2)
+    ap.add_argument("--cache", type=Path, default=None, help="JSON of simulated angles to reuse")
+    ap.add_argument("--quick", action="store_true", help="3 sizes, centred only (smoke run)")
+    ap.add_argument("--no-write", action="store_true", help="print only")
+    args = ap.parse_args()
+
+    rows = simulate(jobs(args.quick), args.workers, args.cache)
+    thresholds = analyse(rows)
+    thesis_rows = [r for r in rows if r["shape"] in THESIS_SHAPES]
+    shapes = ranges(thesis_rows)
+    inside = [
+        r
+        for r in thesis_rows
+        if (v := shapes[r["shape"]]["sizes_where_identification_holds"]) is not None
+        and all(v[k][0] - 1e-12 <= r["params"][k] <= v[k][1] + 1e-12 for k in v)
+    ]
+    modified = {
+        name: {
+            p: float(
+                np.mean(
+                    [r["distances"][p] for r in rows if r["shape"] == name and "distances" in r]
+                )
+            )  # fmt: skip
+            for p in THESIS_SHAPES
+        }
+        for name in MODIFIED
+    }
+    overall, n = rate(thesis_rows)
+    report = {
+        "overall_rate": overall,
+        "grasps": n,
+        "rate_in_valid_ranges": rate(inside)[0],
+        "grasps_in_valid_ranges": len(inside),
+        "thresholds": thresholds,
+        "shapes": shapes,
+        "confusion": confusion(thesis_rows),
+        "modified_shapes": modified,
+        "modified_identified": confusion([r for r in rows if r["shape"] in MODIFIED]),
+    }
+    print(markdown(report))
+    if args.no_write:
+        return
+    (ROOT / "docs" / "img").mkdir(parents=True, exist_ok=True)
+    (ROOT / "docs" / "signature_invariance.json").write_text(
+        json.dumps(report, indent=2, default=float) + "\n"
+    )
+    (ROOT / "docs" / "signature_invariance.md").write_text(markdown(report))
+    data = {
+        "correspondence_threshold": thresholds["correspondence_threshold"],
+        "integral_threshold": thresholds["integral_threshold"],
+        "generated_by": "tools/invariance.py",
+        "grasps": n,
+    }
+    path = ROOT / "tactile_bullet" / "data" / "identification.json"
+    path.parent.mkdir(parents=True, exist_ok=True)
+    path.write_text(json.dumps(data, indent=2) + "\n")
+    plot_distances(
+        thesis_rows, THESIS_SHAPES, ROOT / "docs" / "img" / "signature_distances.png",
+        "DTW distance of simulated signatures to each theoretical pattern",
+    )  # fmt: skip
+    plot_distances(
+        rows, MODIFIED, ROOT / "docs" / "img" / "modified_shapes_distances.png",
+        "Modified shapes against the five patterns",
+    )  # fmt: skip
+    print(f"wrote docs/signature_invariance.md, .json, {path.relative_to(ROOT)}, docs/img/*.png")
+
+
+if __name__ == "__main__":
+    main()

@@ -15,13 +15,14 @@ class ScaledClassifier(ClassifierMixin, BaseEstimator):
     with the probabilities (``predict`` is the most probable class), so ``identify`` never
     reports a shape that is not its most probable one."""
 
-    def _model(self):
+    def _model(self, y: np.ndarray):
+        """The final estimator, given the training labels (to size folds or neighbours)."""
         raise NotImplementedError
 
     def fit(self, X, y):
         X, y = validate_data(self, X, y)
         check_classification_targets(y)
-        self.pipeline_ = Pipeline([("scale", StandardScaler()), ("model", self._model())])
+        self.pipeline_ = Pipeline([("scale", StandardScaler()), ("model", self._model(y))])
         self.pipeline_.fit(X, y)
         self.classes_ = self.pipeline_.classes_
         return self

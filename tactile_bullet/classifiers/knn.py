@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import numpy as np
 from sklearn.neighbors import KNeighborsClassifier
 
 from ._scaled import ScaledClassifier
@@ -14,5 +15,8 @@ class KNNClassifier(ScaledClassifier):
         self.n_neighbors = n_neighbors
         self.weights = weights
 
-    def _model(self):
-        return KNeighborsClassifier(n_neighbors=self.n_neighbors, weights=self.weights)
+    def _model(self, y):
+        k = self.n_neighbors
+        if isinstance(k, int | np.integer) and not isinstance(k, bool):
+            k = max(1, min(int(k), len(y)))  # a small training set still gets a vote
+        return KNeighborsClassifier(n_neighbors=k, weights=self.weights)

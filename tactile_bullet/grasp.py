@@ -111,7 +111,6 @@ def _run(scene, spec, values, pose, ctl, seed, scene_hook) -> GraspRecord:
 
     c, hand = scene.client, scene.hand
     scene.reset_hand()
-    scene.lock_wrist()
     overlap = scene.penetrations(PENETRATION_TOLERANCE)
     if overlap:
         link, depth = min(overlap, key=lambda t: t[1])
@@ -120,14 +119,17 @@ def _run(scene, spec, values, pose, ctl, seed, scene_hook) -> GraspRecord:
             f"{-depth * 1000:.1f} mm): move it away from the palm (--offset y < 0) or shrink it"
         )
 
-    joints = scene.joints
-    targets = np.zeros(len(joints))
-    forces = np.full(len(joints), ctl.motor_force)
-    forces[:2] = 0.0  # the wrist is locked by the scene (see Scene.lock_wrist), not motored
-    held = [n for n in JOINT_NAMES if n[2:] in ("J4", "J5") and not n.startswith("TH")]
-    scene.lock_joints(held)
-    forces[[JOINT_NAMES.index(n) for n in held]] = 0.0
-    damping = np.array([c.getJointInfo(hand, j)[6] for j in joints])
+    # Arrays below are indexed by record column (JOINT_NAMES order); `movable` are the columns
+    # of joints the simulator has (the wrist is welded, see scene.FIXED_JOINTS) and `ids[col]`
+    # PyBullet's index of a column's joint.
+    n = len(JOINT_NAMES)
+    joints, movable = scene.joints, scene.columns
+    ids = np.full(n, -1)
+    ids[movable] = joints
+    targets = np.zeros(n)
+    forces = np.full(n, ctl.motor_force)
+    damping = np.zeros(n)
+    damping[movable] = [c.getJointInfo(hand, j)[6] for j in joints]
     fingers = [_Finger(f, scene) for f in LONG_FINGERS]
     upper = scene.upper
     setmotors = c.setJointMotorControlArray
@@ -143,11 +145,14 @@ def _run(scene, spec, values, pose, ctl, seed, scene_hook) -> GraspRecord:
 
     def sample():
         states = getstates(hand, joints)
-        angle_rows.append([s[0] for s in states])
-        effort_rows.append([s[3] for s in states])
+        angles, efforts = np.zeros(n), np.zeros(n)
+        angles[movable] = [s[0] for s in states]
+        efforts[movable] = [s[3] for s in states]
+        angle_rows.append(angles)
+        effort_rows.append(efforts)
         times.append(step * ctl.timestep)
 
-    filtered = np.zeros(len(joints))
+    filtered = np.zeros(n)
     smooth = ctl.timestep / (EFFORT_FILTER_S + ctl.timestep)
 
     def external(states, idx):
@@ -160,13 +165,13 @@ def _run(scene, spec, values, pose, ctl, seed, scene_hook) -> GraspRecord:
         filtered[idx] += smooth * (raw - filtered[idx])
         return filtered[idx].tolist()
 
-    setmotors(hand, joints, p.POSITION_CONTROL, targetPositions=targets.tolist(),
-              forces=forces.tolist())  # fmt: skip
+    setmotors(hand, joints, p.POSITION_CONTROL, targetPositions=targets[movable].tolist(),
+              forces=forces[movable].tolist())  # fmt: skip
     sample()
 
     # Phase 1: thumb to opposition, stopping on the object if it meets it first.
     thumb = [JOINT_NAMES.index(nm) for nm in THUMB_OPPOSED]
-    thumb_ids = [joints[j] for j in thumb]
+    thumb_ids = ids[thumb].tolist()
     goal = np.array(list(THUMB_OPPOSED.values()))
     forces[thumb] = (5.0, 3.0, 2.0, 2.0, 1.0)
     n_thumb = int(math.ceil(np.abs(goal).max() / (THUMB_SPEED_RATIO * delta)))
@@ -192,7 +197,7 @@ def _run(scene, spec, values, pose, ctl, seed, scene_hook) -> GraspRecord:
 
     # Phase 2: Algorithm 1 on the four fingers at once.
     watch = [j for f in fingers for j in (f.j3, f.j2, f.j1)]
-    watch_ids = [joints[j] for j in watch]
+    watch_ids = ids[watch].tolist()
     while True:
         if step % ctl.control_every == 0:
             states = getstates(hand, watch_ids)
@@ -256,7 +261,8 @@ def _run(scene, spec, values, pose, ctl, seed, scene_hook) -> GraspRecord:
     if times[-1] != step * ctl.timestep:
         sample()
 
-    final = np.array([s[0] for s in getstates(hand, joints)])
+    final = np.zeros(n)
+    final[movable] = [s[0] for s in getstates(hand, joints)]
     if np.any(final < scene.lower - 0.05) or np.any(final > upper + 0.05):
         flags.append("unstable")
     contacts = scene.contacts()

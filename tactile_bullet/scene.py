@@ -9,10 +9,13 @@ sits at the origin.
 from __future__ import annotations
 
 import contextlib
+import hashlib
 import os
 import sys
+import tempfile
 from collections.abc import Iterator, Mapping, Sequence
 from dataclasses import dataclass
+from pathlib import Path
 
 import numpy as np
 import trimesh
@@ -36,6 +39,12 @@ SPAN_X = (-0.045, 0.11)
 object that must clear the palm and thumb at rest."""
 
 FRICTION = 0.8
+
+FIXED_JOINTS = ("WRJ2", "WRJ1")
+"""Joints welded for grasping: the arm holds the palm still (the thesis' hand was mounted and
+its wrist took no part). Welded in the URDF the simulator loads, so the palm joins the fixed
+base: a motor on the wrist made the solver oscillate once two fingers pressed, and a lock by
+zero-width limits yielded 7 deg under a large torus. Records report them at 0 rad."""
 
 SOLVER_ITERATIONS = 50
 """Bullet's default (the contact solver is tuned for it at 240 Hz)."""
@@ -87,6 +96,23 @@ def import_pybullet():
         import pybullet_utils.bullet_client  # noqa: F401
 
     return pybullet
+
+
+def grasping_urdf() -> Path:
+    """The hand's URDF with FIXED_JOINTS welded, cached next to the system's temp files
+    (written once per content, atomically, so parallel workers can share it)."""
+    text = urdf_path().read_text()
+    for name in FIXED_JOINTS:
+        text = text.replace(
+            f'<joint name="{name}" type="revolute">', f'<joint name="{name}" type="fixed">'
+        )
+    digest = hashlib.sha256(text.encode()).hexdigest()[:16]
+    path = Path(tempfile.gettempdir()) / f"tactile-bullet-hand-{digest}.urdf"
+    if not path.exists():
+        tmp = path.with_name(f"{path.name}.{os.getpid()}.tmp")
+        tmp.write_text(text)
+        os.replace(tmp, path)
+    return path
 
 
 @dataclass(frozen=True)
@@ -163,7 +189,7 @@ class Scene:
 
     def _load_hand(self, p) -> int:
         return self.client.loadURDF(
-            str(urdf_path()),
+            str(grasping_urdf()),
             basePosition=(-FOREARM_TO_PALM).tolist(),
             useFixedBase=True,
             # Merging the fixed tip frames into the distal links matters: a 0.1 g tip link
@@ -175,7 +201,7 @@ class Scene:
         c = self.client
         self.joint_index: dict[str, int] = {}
         self.link_index: dict[str, int] = {}
-        self.link_name: dict[int, str] = {-1: "forearm"}
+        self.link_name: dict[int, str] = {-1: "palm"}  # forearm, wrist and palm merged
         for j in range(c.getNumJoints(self.hand)):
             info = c.getJointInfo(self.hand, j)
             link = info[12].decode()
@@ -191,13 +217,15 @@ class Scene:
                 lateralFriction=FRICTION,
                 localInertiaDiagonal=[max(v, ARMATURE_INERTIA) for v in inertia],
             )
-        missing = [n for n in JOINT_NAMES if n not in self.joint_index]
+        missing = [n for n in JOINT_NAMES if n not in self.joint_index and n not in FIXED_JOINTS]
         if missing:
             raise RuntimeError(f"URDF {urdf_path()} lacks joints {missing}")
-        self.joints = [self.joint_index[n] for n in JOINT_NAMES]
-        self.lower = np.array([c.getJointInfo(self.hand, j)[8] for j in self.joints])
-        self.upper = np.array([c.getJointInfo(self.hand, j)[9] for j in self.joints])
-        self.palm = self.link_index["palm"]
+        self.joints = [self.joint_index[n] for n in JOINT_NAMES if n not in FIXED_JOINTS]
+        self.columns = [JOINT_NAMES.index(n) for n in JOINT_NAMES if n not in FIXED_JOINTS]
+        self.lower = np.zeros(len(JOINT_NAMES))
+        self.upper = np.zeros(len(JOINT_NAMES))
+        for col, j in zip(self.columns, self.joints, strict=True):
+            self.lower[col], self.upper[col] = c.getJointInfo(self.hand, j)[8:10]
         self.finger_link_ids = {
             f: [self.link_index[n] for n in links if n in self.link_index]
             for f, links in FINGER_LINKS.items()
@@ -247,27 +275,10 @@ class Scene:
 
     def reset_hand(self, angles: Mapping[str, float] | None = None) -> None:
         """Teleport joints (no dynamics): the open hand (all zero) unless told otherwise."""
-        pose = dict.fromkeys(JOINT_NAMES, 0.0)
+        pose = dict.fromkeys(self.joint_index, 0.0)
         pose.update(angles or {})
         for name, value in pose.items():
             self.client.resetJointState(self.hand, self.joint_index[name], value, 0.0)
-
-    def lock_joints(self, names) -> None:
-        """Zero-width limits and no motor: joints Algorithm 1 never moves (spread J4, LFJ5)
-        cost the solver nothing this way, where a motor holding them costs a constraint row."""
-        for name in names:
-            j = self.joint_index[name]
-            self.client.changeDynamics(self.hand, j, jointLowerLimit=0.0, jointUpperLimit=0.0)
-
-    def lock_wrist(self) -> None:
-        """Hold the palm where the arm put it (the thesis' hand was mounted and its wrist took
-        no part in the grasp). The wrist joints get zero-width limits and no motor: a stiff
-        position motor on the wrist instead makes the multibody solver oscillate as soon as
-        two fingers press on the object (measured: J3 swinging +-0.5 rad)."""
-        for name in ("WRJ2", "WRJ1"):
-            self.client.changeDynamics(
-                self.hand, self.joint_index[name], jointLowerLimit=0.0, jointUpperLimit=0.0
-            )
 
     def penetrations(self, margin: float = 0.0) -> list[tuple[str, float]]:
         """Hand links that overlap the object deeper than ``margin`` (m), with their depth."""
@@ -284,9 +295,9 @@ class Scene:
         """Current hand-object contacts in the palm frame: (link, position on the object,
         object's outward normal, normal force)."""
         c = self.client
-        pos, orn = c.getLinkState(self.hand, self.palm)[4:6]
+        pos, orn = c.getBasePositionAndOrientation(self.hand)
         rot = np.array(c.getMatrixFromQuaternion(orn)).reshape(3, 3)
-        origin = np.asarray(pos)
+        origin = np.asarray(pos) + rot @ FOREARM_TO_PALM  # the palm frame, welded to the base
         out = []
         for body in self.objects:
             for pt in c.getContactPoints(bodyA=self.hand, bodyB=body):

@@ -34,9 +34,10 @@ STANDOFF = 0.005
 GRASP_Z = 0.09
 """z (m) of the object's axis at zero offset: the sheet's grasp centre height."""
 
-SPAN_X = (-0.045, 0.11)
-"""Range of x (m) the open hand covers (little finger edge to thumb tip): the part of the
-object that must clear the palm and thumb at rest."""
+CLEARANCES = (((-0.045, 0.045), PALM_HALF_THICKNESS), ((0.034, 0.115), 0.0206))
+"""(x range, depth in front of the palm plane) of what the object must clear at rest: the palm
+across the fingers, and the open thumb (its 12 mm capsules lie 8.6 mm in front of the palm
+plane from its base at x = 34 mm to its tip near x = 103 mm)."""
 
 FRICTION = 0.8
 
@@ -124,8 +125,8 @@ class Placement:
 
 
 def place_object(shape: Shape, params: Mapping[str, float], pose: Pose) -> Placement:
-    """Object axis at height GRASP_Z, its nearest point STANDOFF in front of the palm, then
-    the pose's offset and its rotation about the palm normal.
+    """Object axis at height GRASP_Z, STANDOFF clear of the open palm and thumb, then the
+    pose's offset and its rotation about the palm normal.
 
     The nominal depth depends on the object's size (a large object sits further out) so that
     the same offset means the same thing for every size: "this far from the resting place".
@@ -137,9 +138,12 @@ def place_object(shape: Shape, params: Mapping[str, float], pose: Pose) -> Place
     # the depth (a dense profile, not the mesh vertices: a cone's mesh has none mid-length).
     u = np.linspace(-0.3, 0.3, 1201)
     x = u * np.cos(pose.rotation)
-    reach = shape.radius(u, **params)[(x >= SPAN_X[0]) & (x <= SPAN_X[1])]
-    top = float(reach.max()) if reach.size else 0.0
-    y0 = -PALM_HALF_THICKNESS - STANDOFF - top
+    radius = shape.radius(u, **params)
+    y0 = 0.0
+    for (lo, hi), depth in CLEARANCES:
+        reach = radius[(x >= lo) & (x <= hi)]
+        if reach.size:
+            y0 = min(y0, -depth - STANDOFF - float(reach.max()))
     pos = np.array([0.0, y0, GRASP_Z]) + np.asarray(pose.offset)
     return Placement(tuple(float(v) for v in pos), tuple(float(v) for v in quat))
 

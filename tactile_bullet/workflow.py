@@ -486,6 +486,7 @@ def demo(
         raise UsageError("too few grasps could be simulated to train and test a model")
 
     model = train(train_records, "signature", "svm")
+    model.info.update({"made_by": "demo", "seed": int(seed), "train_records": len(train_records)})
     model_path = save_model(out / "model.npz", model)
     result = evaluate(model, test_records)
     comparison = compare(

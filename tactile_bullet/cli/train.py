@@ -47,6 +47,9 @@ def run(args: argparse.Namespace) -> int:
     start = time.perf_counter()
     model = train(records, args.descriptor, args.classifier, params, descriptor_params)
     fit_time = time.perf_counter() - start
+    model.info.update(
+        {"data": str(args.data), "train_records": len(records), "fit_time_s": fit_time}
+    )
     path = save_model(out, model)
     doc = {
         "model": str(path),

@@ -217,3 +217,22 @@ def test_confusion_text_lists_every_class():
     text = reports.confusion_text([[2, 0], [1, 3]], ["cone", "sphere"])
     lines = text.splitlines()
     assert lines[1].split()[-2:] == ["2", "0"] and lines[2].split() == ["sphere", "1", "3"]
+
+
+def test_demo_tests_on_sizes_and_offsets_never_trained_on():
+    rng = np.random.default_rng(0)
+
+    def draw(fractions, offsets):
+        return [
+            s for name in workflow.DEMO_SHAPES
+            for s in workflow.draw_specs(name, 25, fractions, offsets, rng)
+        ]  # fmt: skip
+
+    train = draw(workflow.TRAIN_FRACTIONS, workflow.TRAIN_OFFSETS)
+    test = draw(workflow.TEST_FRACTIONS, workflow.TEST_OFFSETS)
+    seen = {(s.shape, k, round(v, 9)) for s in train for k, v in s.params.items()}
+    assert not [(s.shape, k) for s in test for k, v in s.params.items()
+                if (s.shape, k, round(v, 9)) in seen]  # fmt: skip
+    assert not {s.pose.offset for s in train} & {s.pose.offset for s in test}
+    for spec in test:
+        assert TABLE[spec.shape].resolve(spec.params) == dict(spec.params)

@@ -348,6 +348,25 @@ def simulate_many(
     return records, failures
 
 
+def save_records(records: Sequence[GraspRecord], folder: str | os.PathLike) -> Path:
+    """Write records as ``folder/rec00000.npz``... (each file atomic), a folder that
+    :func:`records_from` reads back; records left from an earlier, larger run are removed."""
+    from .records import save_record
+
+    folder = Path(folder)
+    try:
+        folder.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise UsageError(f"cannot create {folder}: {exc.strerror or exc}") from None
+    names = set()
+    for i, rec in enumerate(records):
+        names.add(save_record(rec, folder / f"rec{i:05d}.npz").name)
+    for stale in folder.glob("rec*.npz"):
+        if stale.name not in names:
+            stale.unlink()
+    return folder
+
+
 # --- demo ---------------------------------------------------------------------------------------
 
 TRAIN_FRACTIONS: tuple[float, ...] = (0.0, 0.25, 0.5, 0.75, 1.0)
@@ -460,8 +479,9 @@ def demo(
     thesis shapes (test sizes and offsets never seen in training), train signature + SVM,
     score it, compare the other cheap classifiers, and write a report folder.
 
-    ``out`` receives ``model.npz`` (the signature + SVM model), ``report/`` (report.json,
-    confusion matrix, accuracy by size and position, example signatures, comparison.json)."""
+    ``out`` receives ``train/`` and ``test/`` (the simulated records), ``model.npz`` (the
+    signature + SVM model) and ``report/`` (report.json, confusion matrix, accuracy by size and
+    position, example signatures, comparison.json, demo.json)."""
     from .models import save_model
     from .reports import plot_signatures, report_dir, write_evaluation_report, write_json
 
@@ -484,6 +504,10 @@ def demo(
     sim_time = time.perf_counter() - started
     if len({r.shape for r in train_records}) < 2 or not test_records:
         raise UsageError("too few grasps could be simulated to train and test a model")
+    # the grasps are the expensive part: on disk before any learning, for reuse with
+    # `train --data OUT/train` and `evaluate --data OUT/test`
+    save_records(train_records, out / "train")
+    save_records(test_records, out / "test")
 
     model = train(train_records, "signature", "svm")
     model.info.update({"made_by": "demo", "seed": int(seed), "train_records": len(train_records)})
@@ -508,6 +532,7 @@ def demo(
         "no_contact": train_set.no_contact + test_set.no_contact,
         "report": str(report),
         "model": str(model_path),
+        "data": {"train": str(out / "train"), "test": str(out / "test")},
         "comparison": comparison,
         "seed": int(seed),
         "simulation_time_s": sim_time,
@@ -542,5 +567,6 @@ def demo_text(doc: Mapping[str, Any]) -> str:
             f"(object overlapping the open hand), {doc['no_contact']} grasps without contact"
         )
     lines.append(f"report: {doc['report']}  model: {doc['model']}")
+    lines.append(f"grasps: {doc['data']['train']} (train), {doc['data']['test']} (test)")
     lines.append(f"wall time: {doc['wall_time_s']:.0f} s")
     return "\n".join(lines) + "\n"

@@ -197,6 +197,10 @@ def test_quick_demo_end_to_end(capsys, tmp_path):
     report = tmp_path / "demo" / "report"
     for name in ("confusion_matrix.png", "signatures.png", "report.json", "comparison.json"):
         assert (report / name).is_file()
+    # the simulated grasps and the model are reusable with the other commands
+    capsys.readouterr()
+    again = run_json(capsys, ["evaluate", "--model", doc["model"], "--data", doc["data"]["test"]])
+    assert again["confusion_matrix"] == doc["confusion_matrix"]
 
 
 def test_identify_simulates_a_new_grasp(model_file, capsys):

@@ -10,8 +10,8 @@ from .errors import UsageError
 
 VIEWS = {
     # (camera target in the palm frame, distance, yaw, pitch) in metres and degrees
-    "side": ((0.0, -0.05, 0.11), 0.32, 90.0, -10.0),
-    "front": ((0.0, -0.05, 0.11), 0.32, 180.0, -15.0),
+    "side": ((0.0, -0.05, 0.1), 0.34, 90.0, -10.0),
+    "oblique": ((0.0, -0.04, 0.1), 0.36, 140.0, -25.0),
 }
 
 

@@ -122,8 +122,11 @@ def train(
     if len(set(y)) < 2:
         raise UsageError(f"training needs at least two shapes, the data holds only {y[0]!r}")
     desc = get_descriptor(descriptor, **dict(descriptor_params or {}))
-    features = desc.transform(records)
-    estimator = _fit(classifier, params, features, y)
+    estimator = _estimator(classifier, params)  # names and parameters checked before work
+    reason = _incompatible(desc.name, classifier)
+    if reason:
+        raise UsageError(f"cannot train {classifier} on the {desc.name} descriptor: {reason}")
+    estimator = _fit(estimator, classifier, bool(params), desc.transform(records), y)
     return Model(
         descriptor=desc.name,
         descriptor_params=dict(desc.params),
@@ -133,17 +136,21 @@ def train(
     )
 
 
-def _fit(classifier: str, params: Mapping[str, Any] | None, features: np.ndarray, y: np.ndarray):
+def _estimator(classifier: str, params: Mapping[str, Any] | None):
     from .plugins import get_classifier
 
     try:
-        estimator = get_classifier(classifier, **dict(params or {}))
+        return get_classifier(classifier, **dict(params or {}))
     except TypeError as exc:
         raise UsageError(f"classifier {classifier!r} rejected its parameters: {exc}") from None
+
+
+def _fit(estimator, classifier: str, user_params: bool, features: np.ndarray, y: np.ndarray):
+    """Fit, blaming the user's parameters (UsageError) when the estimator rejects them."""
     try:
         return estimator.fit(features, y)
     except (ValueError, TypeError) as exc:
-        if not params:
+        if not user_params:
             raise
         first = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
         raise UsageError(f"classifier {classifier!r} rejected its parameters: {first}") from None
@@ -241,7 +248,7 @@ def compare(
                 rows.append(_skipped_row(desc.name, name, reason, train_records, test_records))
                 continue
             start = time.perf_counter()
-            estimator = _fit(name, None, x_train, y_train)
+            estimator = _fit(_estimator(name, None), name, False, x_train, y_train)
             fit_time = time.perf_counter() - start
             y_pred = np.asarray(estimator.predict(x_test)).astype(str)
             row = {

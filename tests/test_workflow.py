@@ -138,6 +138,11 @@ def test_unknown_names_and_parameters_list_what_exists(data):
         workflow.train(data[0], "signature", "svm", {"no_such_param": 1})
 
 
+def test_a_classifier_tied_to_one_descriptor_refuses_others(data):
+    with pytest.raises(UsageError, match="reads only the signature"):
+        workflow.train(data[0], "raw-joints", "dtw-template")
+
+
 def test_identify_names_one_of_the_models_classes_with_probabilities(model, data):
     doc = workflow.identify(model, data[1][0])
     assert doc["shape"] in model.classes

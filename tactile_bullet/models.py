@@ -42,9 +42,12 @@ SKLEARN_DATA_TYPES: frozenset[str] = frozenset(
         "sklearn.tree._tree.Tree",
         "sklearn.neighbors._kd_tree.KDTree",
         "sklearn.neighbors._ball_tree.BallTree",
+        "sklearn.calibration._CalibratedClassifier",
+        "sklearn.calibration._SigmoidCalibration",
     }
 )
-"""scikit-learn internals that hold only fitted arrays (trees, neighbour indexes)."""
+"""scikit-learn internals that hold only fitted arrays (trees, neighbour indexes, calibration
+maps) and that skops does not trust by default."""
 
 _DIST_METRIC = re.compile(r"^sklearn\.metrics\._dist_metrics\.[A-Za-z]+(32|64)$")
 """Neighbour-index distance metrics (data-only Cython classes)."""

@@ -91,13 +91,13 @@ class DTWTemplateClassifier(ClassifierMixin, BaseEstimator):
             raise ValueError(f"temperature must be a positive number, got {self.temperature!r}")
 
     def fit(self, X, y):
+        X, y = validate_data(self, X, y)
+        check_classification_targets(y)
+        self._check_layout(X.shape[1])
         from .. import patterns
         from ..descriptors import resample_line
         from ..plugins import get_shape
 
-        X, y = validate_data(self, X, y)
-        check_classification_targets(y)
-        self._check_layout(X.shape[1])
         self.classes_ = np.unique(y)
         templates = []
         for label in self.classes_:
@@ -118,10 +118,10 @@ class DTWTemplateClassifier(ClassifierMixin, BaseEstimator):
     def distances(self, X) -> np.ndarray:
         """(n, n_classes) DTW distances to each class template, after the integral rule
         (which swaps the hyperboloid/cylinder pair so that its choice is the nearer)."""
-        from .. import patterns
-
         check_is_fitted(self)
         X = validate_data(self, X, reset=False)
+        from .. import patterns
+
         p = self.points
         names = [str(c) for c in self.classes_]
         library = {n: _signature(*t) for n, t in zip(names, self.templates_, strict=True)}

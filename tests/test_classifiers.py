@@ -1,0 +1,149 @@
+"""Classifiers: scikit-learn conformance and learning on synthetic grasps, for every registered
+classifier (a plugin's joins these tests by being registered)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from sklearn.utils.estimator_checks import parametrize_with_checks
+from synthetic import make_records
+
+from tactile_bullet import plugins
+from tactile_bullet.errors import UsageError
+
+CLASSIFIERS = plugins.classifier_names()
+DESCRIPTORS = plugins.descriptor_names()
+PAIRS = [
+    (d, c)
+    if plugins.compatible(d, c)
+    else pytest.param(d, c, marks=pytest.mark.skip("reads another descriptor"))
+    for d in DESCRIPTORS
+    for c in CLASSIFIERS
+]
+
+
+CHECKED_ELSEWHERE = {"neural-forest": "tests/test_neural_forest.py, with quick settings"}
+"""Classifiers whose conformance checks run in their own test module (with settings that keep
+the checks fast); every other registered classifier, a plugin's included, is checked here."""
+
+
+def _expected_failures(estimator) -> dict[str, str]:
+    declared = getattr(estimator, "expected_failed_checks", None)
+    return declared() if callable(declared) else {}
+
+
+@parametrize_with_checks(
+    [plugins.get_classifier(name) for name in CLASSIFIERS if name not in CHECKED_ELSEWHERE],
+    expected_failed_checks=_expected_failures,
+)
+def test_scikit_learn_conformance(estimator, check):
+    check(estimator)
+
+
+@pytest.fixture(scope="module")
+def features(synthetic_split):
+    train, test = synthetic_split
+    cache = {}
+
+    def get(name):
+        if name not in cache:
+            desc = plugins.get_descriptor(name)
+            cache[name] = (desc.transform(train), desc.transform(test))
+        return cache[name]
+
+    return get
+
+
+@pytest.mark.parametrize(("descriptor", "classifier"), PAIRS)
+def test_every_pair_beats_chance_on_synthetic_grasps(
+    descriptor, classifier, features, synthetic_split
+):
+    train, test = synthetic_split
+    X_train, X_test = features(descriptor)
+    y_train = np.array([r.shape for r in train])
+    y_test = np.array([r.shape for r in test])
+    estimator = plugins.get_classifier(classifier).fit(X_train, y_train)
+    proba = estimator.predict_proba(X_test)
+    assert proba.shape == (len(test), 5)
+    np.testing.assert_allclose(proba.sum(axis=1), 1.0)
+    accuracy = np.mean(estimator.predict(X_test) == y_test)
+    assert accuracy >= 0.5, f"{descriptor} + {classifier}: {accuracy:.2f} (chance 0.20)"
+
+
+@pytest.mark.parametrize("name", ["svm", "knn", "som", "dtw-template"])
+def test_predict_is_the_most_probable_class(name, features, synthetic_split):
+    train, test = synthetic_split
+    X_train, X_test = features("signature")
+    estimator = plugins.get_classifier(name).fit(X_train, [r.shape for r in train])
+    proba = estimator.predict_proba(X_test)
+    np.testing.assert_array_equal(
+        estimator.predict(X_test), estimator.classes_[np.argmax(proba, axis=1)]
+    )
+
+
+def test_som_keeps_its_map_for_figures(features, synthetic_split):
+    train, _ = synthetic_split
+    X_train, _ = features("signature")
+    y = [r.shape for r in train]
+    som = plugins.get_classifier("som", rows=5, cols=6).fit(X_train, y)
+    assert som.umatrix_.shape == (5, 6) and np.all(som.umatrix_ >= 0)
+    assert som.hit_map_.shape == (5, 6) and som.hit_map_.sum() == len(train)
+    assert som.hits_.shape == (5, 6, 5)
+    assert set(np.unique(som.unit_labels_)) <= set(som.classes_)
+    assert som.bmu_coordinates(X_train[:3]).shape == (3, 2)
+    again = plugins.get_classifier("som", rows=5, cols=6).fit(X_train, y)
+    np.testing.assert_array_equal(som.weights_, again.weights_)
+
+
+def test_som_units_that_won_nothing_answer_like_their_nearest_labelled_unit():
+    X = np.array([[0.0, 0.0], [0.1, 0.0], [5.0, 5.0], [5.1, 5.0]])
+    som = plugins.get_classifier("som", rows=6, cols=6, epochs=5).fit(X, ["a", "a", "b", "b"])
+    assert (som.hit_map_ == 0).any()
+    units = som.weights_.reshape(-1, 2)
+    labelled = np.flatnonzero(som.hit_map_.ravel() > 0)
+    for unit in np.flatnonzero(som.hit_map_.ravel() == 0):
+        nearest = labelled[np.argmin(np.linalg.norm(units[labelled] - units[unit], axis=1))]
+        np.testing.assert_array_equal(som.unit_proba_[unit], som.unit_proba_[nearest])
+
+
+def test_dtw_template_is_training_free(features, synthetic_split):
+    train, test = synthetic_split
+    X_train, X_test = features("signature")
+    y = np.array([r.shape for r in train])
+    one_each = [int(np.flatnonzero(y == s)[0]) for s in np.unique(y)]
+    few = plugins.get_classifier("dtw-template").fit(X_train[one_each], y[one_each])
+    many = plugins.get_classifier("dtw-template").fit(X_train, y)
+    np.testing.assert_array_equal(few.predict(X_test), many.predict(X_test))
+
+
+def test_dtw_template_only_knows_registered_shapes_and_the_signature_layout(features):
+    X_train, _ = features("signature")
+    with pytest.raises(ValueError, match="'teapot'"):
+        plugins.get_classifier("dtw-template").fit(X_train[:2], ["cone", "teapot"])
+    with pytest.raises(ValueError, match="102 columns"):
+        plugins.get_classifier("dtw-template").fit(X_train[:2, :20], ["cone", "torus"])
+
+
+def test_dtw_template_matches_the_pattern_identifier():
+    from tactile_bullet import patterns
+    from tactile_bullet.descriptors import resample_line
+
+    shapes = ["cone", "torus", "sphere", "hyperboloid", "cylinder"]
+    records = make_records(shapes, per_shape=2, seed=9, noise=0.0)
+    X = plugins.get_descriptor("signature", points=200).transform(records)
+    estimator = plugins.get_classifier("dtw-template", points=200).fit(
+        X, [r.shape for r in records]
+    )
+    from tactile_bullet.signature import signature_of
+
+    for record, predicted in zip(records, estimator.predict(X), strict=True):
+        ident = patterns.identify(signature_of(record))
+        assert predicted in (ident.name, ident.nearest)
+    assert resample_line(np.arange(5.0), 5).tolist() == [0, 1, 2, 3, 4]
+
+
+def test_classifier_parameters_go_through_the_registry():
+    assert plugins.get_classifier("knn", n_neighbors=3).n_neighbors == 3
+    assert plugins.classifier_parameters("som")["rows"] == 8
+    with pytest.raises(UsageError, match="n_neighbors"):
+        plugins.get_classifier("knn", k=3)

@@ -1,0 +1,262 @@
+"""Model files: a saved model predicts exactly what it did, and loading never runs code."""
+
+from __future__ import annotations
+
+import io
+import json
+import pickle
+import zipfile
+
+import numpy as np
+import pytest
+
+from tactile_bullet import __version__, plugins
+from tactile_bullet.errors import UsageError
+from tactile_bullet.models import (
+    MODEL_FORMAT_VERSION,
+    Model,
+    fit_model,
+    load_model,
+    save_model,
+)
+
+CLASSIFIERS = plugins.classifier_names()
+
+
+def _descriptor_for(classifier: str) -> str:
+    return plugins.required_descriptor(classifier) or "contact-normals"
+
+
+@pytest.fixture(scope="module")
+def svm_model(synthetic_split):
+    return fit_model(synthetic_split[0], "signature+contact-normals", "svm")
+
+
+@pytest.mark.parametrize("classifier", CLASSIFIERS)
+def test_saved_model_predicts_exactly_what_it_did(classifier, synthetic_split, tmp_path):
+    train, test = synthetic_split
+    model = fit_model(train, _descriptor_for(classifier), classifier)
+    path = save_model(tmp_path / "model.npz", model)
+    loaded = load_model(path)
+    assert type(loaded.estimator) is type(model.estimator)
+    assert loaded.classes == model.classes
+    assert (loaded.descriptor, loaded.classifier) == (model.descriptor, classifier)
+    np.testing.assert_array_equal(loaded.predict_records(test), model.predict_records(test))
+    np.testing.assert_array_equal(
+        loaded.predict_proba_records(test), model.predict_proba_records(test)
+    )
+
+
+def test_model_remembers_names_parameters_and_versions(synthetic_split, tmp_path):
+    model = fit_model(
+        synthetic_split[0],
+        "signature",
+        "knn",
+        descriptor_params={"points": 20},
+        classifier_params={"n_neighbors": 3},
+    )
+    model.info["records"] = len(synthetic_split[0])
+    loaded = load_model(save_model(tmp_path / "m.npz", model))
+    assert loaded.descriptor_params == {"points": 20, "alpha": False}
+    assert loaded.classifier_params == {"n_neighbors": 3}
+    assert loaded.estimator.n_neighbors == 3
+    assert loaded.info == {"records": len(synthetic_split[0])}
+    assert loaded.software_version == __version__
+    assert loaded.format_version == MODEL_FORMAT_VERSION
+    assert loaded.features(synthetic_split[1][:2]).shape == (2, 42)
+
+
+def test_predictions_are_shape_names_with_one_probability_per_class(svm_model, synthetic_split):
+    test = synthetic_split[1]
+    names = svm_model.predict_records(test)
+    proba = svm_model.predict_proba_records(test)
+    assert set(names) <= set(svm_model.classes) and len(names) == len(test)
+    assert proba.shape == (len(test), len(svm_model.classes))
+    np.testing.assert_allclose(proba.sum(axis=1), 1.0)
+
+
+# --- files that must be refused --------------------------------------------------------------
+
+
+def _rewrite(path, tmp_path, change):
+    """Copy a model file with its members changed by ``change(dict of arrays)``."""
+    with np.load(path, allow_pickle=False) as data:
+        members = {k: data[k] for k in data.files}
+    change(members)
+    out = tmp_path / "tampered.npz"
+    with open(out, "wb") as fh:
+        np.savez(fh, **members)
+    return out
+
+
+def _set_meta(members, **updates):
+    meta = json.loads(str(members["meta"]))
+    meta.update(updates)
+    members["meta"] = np.array(json.dumps(meta))
+
+
+@pytest.fixture
+def saved(svm_model, tmp_path):
+    return save_model(tmp_path / "model.npz", svm_model)
+
+
+class Payload:
+    """Stands for code an attacker would like a model file to construct."""
+
+    def __reduce__(self):
+        return (print, ("pwned",))
+
+
+def test_random_bytes_and_missing_files_are_refused(tmp_path):
+    junk = tmp_path / "junk.npz"
+    junk.write_bytes(np.random.default_rng(0).bytes(300))
+    with pytest.raises(UsageError, match="not a tactile-bullet model"):
+        load_model(junk)
+    with pytest.raises(UsageError, match="does not exist"):
+        load_model(tmp_path / "absent.npz")
+
+
+def test_a_pickle_is_refused_without_being_run(tmp_path, capsys):
+    path = tmp_path / "model.npz"
+    path.write_bytes(pickle.dumps(Payload()))
+    with pytest.raises(UsageError, match="not a tactile-bullet model"):
+        load_model(path)
+    assert "pwned" not in capsys.readouterr().out
+
+
+def test_a_pickled_array_inside_the_archive_is_refused(saved, tmp_path, capsys):
+    def add_object_array(members):
+        members["estimator_skops"] = np.array([Payload()], dtype=object)
+
+    path = _rewrite(saved, tmp_path, add_object_array)
+    with pytest.raises(UsageError):
+        load_model(path)
+    assert "pwned" not in capsys.readouterr().out
+
+
+def test_an_estimator_with_untrusted_types_is_refused(saved, tmp_path):
+    import skops.io as sio
+
+    from tactile_bullet.classifiers.svm import SVMClassifier
+
+    evil = SVMClassifier()
+    evil.classes_ = np.array(["cone"])
+    evil.hook_ = Payload.__new__(Payload)
+
+    def swap(members):
+        members["estimator_skops"] = np.frombuffer(sio.dumps(evil), dtype=np.uint8)
+
+    with pytest.raises(UsageError, match="test_models.Payload"):
+        load_model(_rewrite(saved, tmp_path, swap))
+
+
+def test_an_estimator_of_another_classifier_than_named_is_refused(saved, tmp_path):
+    def claim_knn(members):
+        _set_meta(members, classifier={"name": "knn", "params": {}})
+
+    with pytest.raises(UsageError, match="SVMClassifier"):
+        load_model(_rewrite(saved, tmp_path, claim_knn))
+
+
+def test_a_trusted_estimator_that_is_not_the_named_classifier_is_refused(saved, tmp_path):
+    import skops.io as sio
+    from sklearn.linear_model import LogisticRegression
+
+    other = LogisticRegression().fit([[0.0], [1.0]], ["cone", "torus"])
+
+    def swap(members):
+        members["estimator_skops"] = np.frombuffer(sio.dumps(other), dtype=np.uint8)
+
+    with pytest.raises(UsageError, match="not the 'svm' classifier"):
+        load_model(_rewrite(saved, tmp_path, swap))
+
+
+def test_a_model_whose_descriptor_is_not_installed_is_refused(saved, tmp_path):
+    def rename(members):
+        _set_meta(members, descriptor={"name": "fingerprint-3d", "params": {}})
+
+    with pytest.raises(UsageError, match="fingerprint-3d"):
+        load_model(_rewrite(saved, tmp_path, rename))
+
+
+def test_a_newer_format_is_refused_with_both_versions(saved, tmp_path):
+    path = _rewrite(saved, tmp_path, lambda m: _set_meta(m, format_version=99))
+    with pytest.raises(UsageError, match="99") as info:
+        load_model(path)
+    assert str(MODEL_FORMAT_VERSION) in str(info.value)
+
+
+def test_another_zip_archive_is_refused(tmp_path):
+    path = tmp_path / "other.npz"
+    buffer = io.BytesIO()
+    with zipfile.ZipFile(buffer, "w") as archive:
+        archive.writestr("readme.txt", "hello")
+    path.write_bytes(buffer.getvalue())
+    with pytest.raises(UsageError, match="not a tactile-bullet model"):
+        load_model(path)
+
+
+def test_an_unfitted_model_is_not_saved(tmp_path):
+    model = Model("signature", {}, "svm", {}, plugins.get_classifier("svm"))
+    with pytest.raises(UsageError, match="not been fitted"):
+        save_model(tmp_path / "m.npz", model)
+    assert not (tmp_path / "m.npz").exists()
+
+
+class StateCentroid:
+    """A classifier saved through the to_state/from_state protocol (no skops)."""
+
+    def __init__(self, shrink=0.0):
+        self.shrink = shrink
+
+    def get_params(self, deep=True):
+        return {"shrink": self.shrink}
+
+    def set_params(self, **params):
+        self.__dict__.update(params)
+        return self
+
+    def fit(self, X, y):
+        self.classes_, idx = np.unique(y, return_inverse=True)
+        self.centroids_ = np.array([X[idx == k].mean(axis=0) for k in range(len(self.classes_))])
+        return self
+
+    def predict_proba(self, X):
+        d = np.linalg.norm(X[:, None, :] - self.centroids_[None], axis=-1)
+        w = np.exp(-(d - d.min(axis=1, keepdims=True)))
+        return w / w.sum(axis=1, keepdims=True)
+
+    def predict(self, X):
+        return self.classes_[np.argmax(self.predict_proba(X), axis=1)]
+
+    def to_state(self):
+        return {"shrink": self.shrink, "classes": self.classes_.tolist()}, {
+            "centroids": self.centroids_
+        }
+
+    @classmethod
+    def from_state(cls, state, arrays):
+        est = cls(shrink=state["shrink"])
+        est.classes_ = np.array(state["classes"])
+        est.centroids_ = np.asarray(arrays["centroids"], dtype=float)
+        return est
+
+
+def test_state_protocol_saves_a_plugin_classifier(register_test_plugin, synthetic_split, tmp_path):
+    from tactile_bullet.hookspecs import hookimpl
+    from tactile_bullet.models import StatefulEstimator
+
+    class Plugin:
+        @hookimpl
+        def register_classifiers(self, register):
+            register("test-state-centroid", StateCentroid)
+
+    register_test_plugin(Plugin(), "test-state-plugin")
+    train, test = synthetic_split
+    model = fit_model(train, "contact-normals", "test-state-centroid")
+    assert isinstance(model.estimator, StatefulEstimator)
+    path = save_model(tmp_path / "m.npz", model)
+    with np.load(path, allow_pickle=False) as data:
+        assert "estimator_skops" not in data.files
+    loaded = load_model(path)
+    np.testing.assert_array_equal(loaded.predict_records(test), model.predict_records(test))

@@ -30,13 +30,11 @@ import numpy as np
 from .errors import UsageError
 from .hand import (
     FINGER_X,
-    GRASP_CENTRE,
     KNUCKLE_Z,
     LONG_FINGERS,
-    PALM_HALF_THICKNESS,
     PHALANX_LENGTHS,
 )
-from .scene import SPAN_X, STANDOFF
+from .records import Pose
 from .shapes import BUILTIN_SHAPES, THESIS_SHAPES, Shape
 from .signature import Signature, signature_from_angles, signature_of
 
@@ -98,7 +96,11 @@ def hand_wrap_angles(radius, centre_y: float, centre_z=None) -> np.ndarray:
     r = _radii(radius)
     if r.shape != (len(LONG_FINGERS),):
         raise UsageError("hand_wrap_angles needs one radius per long finger (ff, mf, rf, lf)")
-    zc = np.full(r.shape, GRASP_CENTRE[2]) if centre_z is None else np.asarray(centre_z, float)
+    if centre_z is None:
+        from .scene import GRASP_Z
+
+        centre_z = GRASP_Z
+    zc = np.broadcast_to(np.asarray(centre_z, dtype=float), r.shape)
     zk = np.array([KNUCKLE_Z[f] for f in LONG_FINGERS])
     big_r = r + PAD_RADIUS
     vy, vz = centre_y - 0.0, zc - zk  # knuckle to centre, in the finger plane
@@ -121,21 +123,36 @@ knuckles and the object's nominal placement) or ``arc`` (:func:`arc_angles`, eq.
 
 
 def theoretical_angles(
-    shape: str | Shape, params: Mapping[str, float] | None = None, model: str = "hand"
+    shape: str | Shape,
+    params: Mapping[str, float] | None = None,
+    model: str = "hand",
+    pose: Pose | None = None,
 ) -> np.ndarray:
-    """(3, 4) joint angles a hand wrapped on ``shape`` (nominal pose) would hold."""
+    """(3, 4) joint angles a hand wrapped on ``shape`` would hold, the object placed where the
+    scene puts it (``scene.place_object``: nominal depth, then the pose's offset and rotation).
+
+    Turned by beta about the palm normal, the axis crosses finger f's plane at
+    t = (x_f - dx) / cos(beta) along itself and at z_f = z0 - (x_f - dx) tan(beta): each
+    finger sees its own section at its own height, which is what makes alpha grow with the
+    rotation. The ``arc`` model ignores the pose (eq. 2.3 alone).
+    """
     spec = _shape(shape)
     values = spec.resolve(params)
+    pose = pose or Pose()
     x = np.array([FINGER_X[f] for f in LONG_FINGERS])
-    r = spec.radius(x, **values)
     if model == "arc":
-        return arc_angles(r)
+        return arc_angles(spec.radius(x, **values))
     if model != "hand":
         raise UsageError(f"model must be one of {', '.join(MODELS)}, got {model!r}")
-    # Placed as scene.place_object does: nearest point STANDOFF in front of the palm.
-    span = np.linspace(SPAN_X[0], SPAN_X[1], 221)
-    top = float(np.max(spec.radius(span, **values)))
-    return hand_wrap_angles(r, -PALM_HALF_THICKNESS - STANDOFF - top)
+    from .scene import place_object
+
+    centre = place_object(spec, values, pose).position
+    beta = pose.rotation
+    if abs(beta) >= np.pi / 3:
+        raise UsageError(f"rotation must be within +-60 deg, got {np.degrees(beta):.1f} deg")
+    along = x - centre[0]
+    r = spec.radius(along / np.cos(beta), **values)
+    return hand_wrap_angles(r, centre[1], centre[2] - along * np.tan(beta))
 
 
 def pattern(

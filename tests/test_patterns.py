@@ -14,7 +14,9 @@ from tactile_bullet.patterns import (
     pattern,
     theoretical_angles,
 )
+from tactile_bullet.records import Pose
 from tactile_bullet.rotation import estimate_rotation_deg, fit_calibration
+from tactile_bullet.signature import signature_from_angles
 
 
 def test_arc_angles_follow_eq_2_3_on_large_circles():
@@ -35,6 +37,16 @@ def test_patterns_have_the_thesis_shapes():
     assert lib["hyperboloid"].bulge_upper > lib["cylinder"].bulge_upper  # the waist
     assert lib["sphere"].bulge_upper < 0 and lib["torus"].bulge_upper < 0
     assert lib["cone"].alpha_deg < -5  # the taper is a slope, removed by the rotation step
+
+
+def test_theory_predicts_alpha_growing_linearly_with_the_object_rotation():
+    def alpha(deg):
+        turned = theoretical_angles("cylinder", pose=Pose(rotation=np.radians(deg)))
+        return signature_from_angles(turned).alpha_upper
+
+    steps = np.diff([alpha(0), alpha(10), alpha(20)])
+    assert np.all(steps < -1)  # turned one way, the signature tilts one way
+    assert steps[0] == pytest.approx(steps[1], rel=0.05)
 
 
 def test_dtw_distance_is_zero_on_itself_and_grows_with_difference():
@@ -93,22 +105,23 @@ def test_rotation_calibration_inverts_a_linear_relation():
 def grasps():
     from tactile_bullet.grasp import simulate_grasp
 
-    return {
-        "thin cylinder": simulate_grasp("cylinder", {"radius": 0.025, "length": 0.12}),
-        "thick cylinder": simulate_grasp("cylinder", {"radius": 0.04, "length": 0.14}),
-        "cone": simulate_grasp("cone"),
+    sizes = {
+        "cylinder": ({"radius": 0.025}, {"radius": 0.03}),
+        "cone": ({"radius": 0.04, "length": 0.14}, {"radius": 0.05, "length": 0.16}),
     }
+    return {name: [simulate_grasp(name, p) for p in pair] for name, pair in sizes.items()}
 
 
 def test_simulated_same_shape_at_two_sizes_is_closer_than_another_shape(grasps):
     from tactile_bullet.patterns import signature_distance
     from tactile_bullet.signature import signature_of
 
-    thin, thick, cone = (
-        signature_of(grasps[k]) for k in ("thin cylinder", "thick cylinder", "cone")
+    (cyl_a, cyl_b), (cone_a, cone_b) = (
+        [signature_of(r) for r in grasps[k]] for k in ("cylinder", "cone")
     )
-    assert signature_distance(thin, thick) < signature_distance(thin, cone)
-    assert signature_distance(thin, thick) < signature_distance(thick, cone)
+    across = [signature_distance(c, k) for c in (cyl_a, cyl_b) for k in (cone_a, cone_b)]
+    assert signature_distance(cyl_a, cyl_b) < min(across)
+    assert signature_distance(cone_a, cone_b) < min(across)
 
 
 def test_signature_summary_has_the_grasp_json_fields(grasps):
@@ -116,7 +129,7 @@ def test_signature_summary_has_the_grasp_json_fields(grasps):
 
     from tactile_bullet.patterns import signature_summary
 
-    summary = signature_summary(grasps["cone"])
+    summary = signature_summary(grasps["cone"][0])
     assert set(summary) == {"alpha_deg", "rotation_estimate_deg", "nearest_pattern", "distances"}
     assert set(summary["distances"]) == set(default_library())
     assert summary["nearest_pattern"] in {*default_library(), "unknown"}

@@ -330,7 +330,18 @@ def main() -> None:
         rows, MODIFIED, ROOT / "docs" / "img" / "modified_shapes_distances.png",
         "Modified shapes against the five patterns",
     )  # fmt: skip
+    example_figures(ROOT / "docs" / "img")
     print(f"wrote docs/signature_invariance.md, .json, {path.relative_to(ROOT)}, docs/img/*.png")
+
+
+def example_figures(folder: Path) -> None:
+    """The pattern gallery and one default-size grasp per thesis shape (Figs 2.13, 2.18)."""
+    from tactile_bullet.figures_signature import plot_grasp_signature, plot_patterns
+    from tactile_bullet.grasp import simulate_grasp
+
+    plot_patterns(folder / "signature_patterns.png")
+    for name in ("cone", "sphere", "cylinder"):
+        plot_grasp_signature(simulate_grasp(TABLE[name]), folder / f"signature_{name}.png")
 
 
 if __name__ == "__main__":

@@ -25,6 +25,8 @@ import numpy as np
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 
+from tactile_bullet.patterns import theoretical_angles  # noqa: E402
+from tactile_bullet.records import Pose  # noqa: E402
 from tactile_bullet.rotation import LINES, alpha_of, fit_calibration, save_calibration  # noqa: E402
 from tactile_bullet.shapes import BUILTIN_SHAPES  # noqa: E402
 from tactile_bullet.signature import signature_from_angles  # noqa: E402
@@ -120,6 +122,13 @@ def main() -> None:
             print(f"       {shape:>11}: slope {v['slope']:.3f} R2 {v['r2']:.2f} "
                   f"MAE own fit {own:.2f}, pooled fit {pooled:.2f}")  # fmt: skip
     best = min(fits.values(), key=own_mae)
+    for name in SHAPES:  # the hand model's prediction, for comparison (default size)
+        turned = [
+            theoretical_angles(name, pose=Pose(rotation=np.radians(d))) for d in ROTATIONS_DEG
+        ]
+        pred = [alpha_of(signature_from_angles(a), best.line) for a in turned]
+        slope, icpt = np.polyfit(ROTATIONS_DEG, pred, 1)
+        print(f"theory ({best.line} line) {name:>11}: slope {slope:.3f}, alpha(0) {icpt:+.2f}")
     clean = [i for i, r in enumerate(rows) if not r["flags"]]
     if len(clean) >= 3:
         sub = fit_calibration(

@@ -341,7 +341,8 @@ def write_evaluation_report(report: Mapping[str, Any], out: str | os.PathLike) -
 
 def plot_signatures(records: Sequence, path: str | os.PathLike, per_shape: int = 3) -> Path:
     """Enhanced signatures (lower and upper line) of a few grasps of each shape, one panel per
-    shape: how alike grasps of one shape look across sizes and poses, and how unlike others."""
+    shape, over the shape's theoretical pattern: how alike grasps of one shape look across
+    sizes and poses, how far they are from theory, and how unlike the other shapes."""
     from .signature import signature_of
 
     plt = _pyplot()
@@ -363,8 +364,24 @@ def plot_signatures(records: Sequence, path: str | os.PathLike, per_shape: int =
             colour = f"C{k}"
             ax.plot(x, sig.lower, color=colour, lw=1.2)
             ax.plot(x, sig.upper, color=colour, lw=1.2, ls="--")
+        theory = _theoretical(name)
+        if theory is not None:
+            x = np.linspace(0.0, 1.0, theory.lower.size)
+            ax.plot(x, theory.lower, color="black", lw=2.0, alpha=0.6)
+            ax.plot(x, theory.upper, color="black", lw=2.0, alpha=0.6, ls="--")
         ax.set_title(name)
         ax.set_xticks([0, 1], ["ff", "lf"])
         ax.set_ylim(-1.15, 1.15)
     axes[0][0].set_ylabel("enhanced signature (solid lower, dashed upper)")
+    fig.suptitle("grasps in colour, theoretical pattern (default size) in black", y=1.03)
     return _save(fig, Path(path))
+
+
+def _theoretical(shape: str):
+    """The shape's theoretical signature, or None where theory does not cover it."""
+    try:
+        from .patterns import pattern
+
+        return pattern(shape)
+    except (ImportError, UsageError, KeyError):
+        return None

@@ -201,6 +201,9 @@ def summary_text(report: Mapping[str, Any]) -> str:
         confusion_text(report["confusion_matrix"], report["classes"]),
         "",
     ]
+    if report.get("unknown_classes"):
+        unknown = ", ".join(report["unknown_classes"])
+        lines.append(f"shapes the model was not trained on (always counted wrong): {unknown}")
     for kind in ("by_size", "by_position"):
         bins = report.get(kind)
         if bins:

@@ -318,4 +318,4 @@ def test_example_distribution_is_listed_and_selectable(tmp_path):
         """
     )
     proc = subprocess.run([sys.executable, "-c", use], capture_output=True, text=True)
-    assert proc.stdout.split() == ["RandomForestClassifier", "7"], proc.stderr
+    assert proc.stdout.split() == ["ExampleForest", "7"], proc.stderr

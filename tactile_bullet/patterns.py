@@ -1,19 +1,28 @@
 """Theoretical signatures and the training-free nearest-pattern identifier (thesis 2.3.1, 2.5).
 
-Theory: a finger wrapped on a circle of radius r closes by theta = s / r in total (eq. 2.3).
-Its three joints share that angle phalanx by phalanx: a phalanx of length l lying on the
-circle (tangent at its middle, its axis a pad radius away from the surface) spans the central
-angle 2 atan(l / (2 (r + pad))), and the angle between two phalanges on a circle equals the
-central angle of the arc between them (thesis Appendix A), so joint i turns by the central
-angle of phalanx i. The sum tends to s / (r + pad) for small phalanges, eq. 2.3 itself. Each
-finger samples the shape's radius profile r(x) at its own position x on O-O' (hand.FINGER_X);
-a finger beside the object (r = 0) closes to its limits. These angles then go through exactly
-the pipeline of measured ones (``signature.signature_from_angles``).
+Theory: a finger wrapped on a circle of radius r closes by theta = s / r in total (eq. 2.3),
+and the angle between two phalanges on a circle equals the central angle of the arc between
+them (thesis Appendix A). Two models turn a shape's radius profile r(x), sampled at each
+finger's own x on O-O' (hand.FINGER_X), into joint angles:
+
+- ``hand`` (default): the Shadow hand's own geometry. Each finger flexes about its knuckle
+  (the LF knuckle sits 8.5 mm lower, the MF 4 mm higher) around the section of the object
+  where the scene places it, grown by the phalanx radius; the proximal phalanx lies along the
+  tangent from the knuckle and each later joint turns by the central angle between successive
+  tangent points (:func:`hand_wrap_angles`). Far from the knuckle this is eq. 2.3 again; near
+  it, J3 mostly says where the knuckle meets the object, which is what the simulated (and a
+  real) hand does: this model predicts simulated J3 within a few hundredths of a radian on
+  cylinders, where eq. 2.3 alone gets even the sign of the finger-to-finger differences wrong.
+- ``arc``: eq. 2.3 alone, joint i turning by the central angle of phalanx i,
+  2 atan(l_i / (2 (r + pad))), identical for every finger but for r.
+
+Either way, the angles go through exactly the pipeline of measured ones
+(``signature.signature_from_angles``).
 
 Identification: dynamic time warping (dtaidistance's C implementation) between each enhanced
 line and the pattern's, summed over both lines; the nearest pattern wins if it lies within the
 correspondence threshold, else "unknown"; between hyperboloid and cylinder the signature's
-bulge (the thesis' integral rule) decides. Both thresholds come from simulated grasps
+upper-line bulge (the thesis' integral rule) decides. Both thresholds come from simulated grasps
 (``tools/invariance.py`` writes ``data/identification.json``).
 """
 
@@ -80,15 +89,31 @@ def _radii(radius) -> np.ndarray:
     return r
 
 
-def hand_wrap_angles(radius, centre_y: float, centre_z=None) -> np.ndarray:
+def reach_profile(radius_fn, t, pad: float = PAD_RADIUS, samples: int = 41) -> np.ndarray:
+    """Distance from the axis at which a phalanx axis in the plane through ``t`` (m along
+    O-O') first meets the solid: the section of the solid grown by the phalanx radius,
+    max over |u - t| <= pad of r(u) + sqrt(pad^2 - (u - t)^2); 0 where nothing is in reach.
+
+    A capsule is as wide as its radius on each side of the finger's plane, so on a curved
+    profile it touches where the solid is wider than at its own section: a finger at 33 mm
+    on a 45 mm sphere meets it 43 mm from the axis, not r(x) + pad = 40 mm.
+    """
+    t = np.asarray(t, dtype=float)
+    du = np.linspace(-pad, pad, samples)
+    r = radius_fn(t[:, None] + du[None, :])
+    grown = np.where(r > 0, r + np.sqrt(np.clip(pad**2 - du**2, 0.0, None))[None, :], 0.0)
+    return grown.max(axis=1)
+
+
+def hand_wrap_angles(radius, centre_y: float, centre_z=None, reach=None) -> np.ndarray:
     """Joint angles (3, 4) of the four long fingers wrapped on the object's cross-sections.
 
     Finger f flexes in its own plane x = FINGER_X[f] about its knuckle (y = 0, z = KNUCKLE_Z);
     the cross-section there is a circle of radius r_f centred at (centre_y, centre_z), which the
-    phalanx axes meet at R = r_f + pad. The enclosure grasp ends with each phalanx tangent to
-    that circle: the proximal one along the tangent from the knuckle (J3 = the tangent's
-    direction, which is where the knuckle's height and the object's distance enter), and each
-    joint after it turning by the central angle between successive tangent points,
+    phalanx axes meet at R = ``reach`` (default r_f + pad). The enclosure grasp ends with each
+    phalanx tangent to that circle: the proximal one along the tangent from the knuckle (J3 =
+    the tangent's direction, which is where the knuckle's height and the object's distance
+    enter), and each joint after it turning by the central angle between successive tangent points,
     2 atan(e / R), e being how far the previous phalanx reaches past its own tangent point
     (Appendix A: the angle between phalanges equals the central angle of the arc between
     them). On a circle far from the knuckle this tends to eq. 2.3 (total s / R).
@@ -102,7 +127,7 @@ def hand_wrap_angles(radius, centre_y: float, centre_z=None) -> np.ndarray:
         centre_z = GRASP_Z
     zc = np.broadcast_to(np.asarray(centre_z, dtype=float), r.shape)
     zk = np.array([KNUCKLE_Z[f] for f in LONG_FINGERS])
-    big_r = r + PAD_RADIUS
+    big_r = r + PAD_RADIUS if reach is None else np.asarray(reach, dtype=float)
     vy, vz = centre_y - 0.0, zc - zk  # knuckle to centre, in the finger plane
     dist = np.hypot(vy, vz)
     towards = np.arctan2(-vy, vz)  # flexion that would point the finger at the centre
@@ -150,9 +175,10 @@ def theoretical_angles(
     beta = pose.rotation
     if abs(beta) >= np.pi / 3:
         raise UsageError(f"rotation must be within +-60 deg, got {np.degrees(beta):.1f} deg")
-    along = x - centre[0]
-    r = spec.radius(along / np.cos(beta), **values)
-    return hand_wrap_angles(r, centre[1], centre[2] - along * np.tan(beta))
+    t = (x - centre[0]) / np.cos(beta)
+    reach = reach_profile(lambda u: spec.radius(u, **values), t)
+    z = centre[2] - (x - centre[0]) * np.tan(beta)
+    return hand_wrap_angles(np.where(reach > 0, reach, 0.0), centre[1], z, reach)
 
 
 def pattern(

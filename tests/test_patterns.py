@@ -31,6 +31,18 @@ def test_arc_angles_shrink_as_the_circle_grows_and_max_out_without_object():
     assert np.all(np.diff(theta[:, 1:], axis=1) < 0)
 
 
+def test_reach_profile_grows_the_solid_by_the_phalanx_radius():
+    from tactile_bullet.patterns import reach_profile
+    from tactile_bullet.shapes import cylinder_radius, sphere_radius
+
+    x = np.array([0.0, 0.033])
+    sphere = reach_profile(lambda u: sphere_radius(u, 0.045), x, pad=0.009, samples=2001)
+    np.testing.assert_allclose(sphere, np.sqrt(0.054**2 - x**2), rtol=1e-4)
+    cyl = reach_profile(lambda u: cylinder_radius(u, 0.03, 0.12), x, pad=0.009)
+    np.testing.assert_allclose(cyl, 0.039)
+    assert reach_profile(lambda u: sphere_radius(u, 0.02), np.array([0.04]))[0] == 0
+
+
 def test_patterns_have_the_thesis_shapes():
     lib = default_library()
     assert set(lib) == {"cone", "torus", "sphere", "hyperboloid", "cylinder"}

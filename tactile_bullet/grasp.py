@@ -128,6 +128,10 @@ def _run(scene, spec, values, pose, ctl, seed, scene_hook) -> GraspRecord:
     ids[movable] = joints
     targets = np.zeros(n)
     forces = np.full(n, ctl.motor_force)
+    # The proximal joint gets the sheet's 2 N m: it must hold while the coupled J0 (the sheet's
+    # tendon at 1 N m) presses the middle and distal phalanges into the object, whose reaction
+    # acts on J3 through a longer lever. At 1 N m the proximal was pushed back 0.4 rad.
+    forces[[JOINT_NAMES.index(f"{f.upper()}J3") for f in LONG_FINGERS]] = 2.0 * ctl.motor_force
     damping = np.zeros(n)
     damping[movable] = [c.getJointInfo(hand, j)[6] for j in joints]
     fingers = [_Finger(f, scene) for f in LONG_FINGERS]

@@ -147,3 +147,24 @@ def test_classifier_parameters_go_through_the_registry():
     assert plugins.classifier_parameters("som")["rows"] == 8
     with pytest.raises(UsageError, match="n_neighbors"):
         plugins.get_classifier("knn", k=3)
+
+
+def test_platt_sigmoid_minimises_the_smoothed_log_loss():
+    from scipy.optimize import minimize
+    from scipy.special import expit
+
+    from tactile_bullet.classifiers.svm import platt_sigmoid
+
+    rng = np.random.default_rng(0)
+    f = rng.normal(size=300)
+    positive = f + rng.normal(scale=0.8, size=300) > 0
+    n_pos, n_neg = positive.sum(), (~positive).sum()
+    target = np.where(positive, (n_pos + 1) / (n_pos + 2), 1 / (n_neg + 2))
+
+    def loss(ab):
+        p = expit(-(ab[0] * f + ab[1]))
+        return -np.sum(target * np.log(p) + (1 - target) * np.log(1 - p))
+
+    reference = minimize(loss, [0.0, 0.0], method="Nelder-Mead", options={"xatol": 1e-8}).x
+    np.testing.assert_allclose(platt_sigmoid(f, positive), reference, atol=1e-3)
+    assert platt_sigmoid(f, positive)[0] < 0  # larger decision value, more likely positive

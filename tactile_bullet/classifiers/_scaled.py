@@ -11,9 +11,9 @@ from sklearn.utils.validation import check_is_fitted, validate_data
 
 
 class ScaledClassifier(ClassifierMixin, BaseEstimator):
-    """Base of ``svm`` and ``knn``: StandardScaler then ``_model()``, predictions consistent
-    with the probabilities (``predict`` is the most probable class), so ``identify`` never
-    reports a shape that is not its most probable one."""
+    """Base of ``knn`` (and of any such wrapper): StandardScaler then ``_model(y)``, with
+    predictions consistent with the probabilities (``predict`` is the most probable class), so
+    ``identify`` never reports a shape that is not its most probable one."""
 
     def _model(self, y: np.ndarray):
         """The final estimator, given the training labels (to size folds or neighbours)."""

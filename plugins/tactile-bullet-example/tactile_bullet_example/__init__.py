@@ -15,7 +15,7 @@ def random_forest(**params):
     """A seeded random forest: without a seed, two trainings would give two models."""
     from .forest import ExampleForest
 
-    params.setdefault("n_estimators", 200)
+    params.setdefault("n_estimators", 100)
     params.setdefault("random_state", 0)
     return ExampleForest(**params)
 

@@ -22,7 +22,7 @@ Either way, the angles go through exactly the pipeline of measured ones
 Identification: dynamic time warping (dtaidistance's C implementation) between each enhanced
 line and the pattern's, summed over both lines; the nearest pattern wins if it lies within the
 correspondence threshold, else "unknown"; between hyperboloid and cylinder the signature's
-upper-line bulge (the thesis' integral rule) decides. Both thresholds come from simulated grasps
+bulge (the thesis' integral rule) decides. Both thresholds come from simulated grasps
 (``tools/invariance.py`` writes ``data/identification.json``).
 """
 
@@ -59,6 +59,8 @@ warp of more than a tenth of the hand would match features no finger could have 
 
 INTEGRAL_PAIR = ("hyperboloid", "cylinder")
 """The two patterns the integral rule separates (thesis Fig. 2.22)."""
+
+INTEGRAL_LINES = ("upper", "lower", "none")
 
 _TABLE = {s.name: s for s in BUILTIN_SHAPES}
 
@@ -217,11 +219,19 @@ class Thresholds:
     correspondence: float = float("inf")
     """Largest distance to the nearest pattern that still counts as a match."""
     integral: float = 0.0
-    """Upper-line bulge above which a hyperboloid/cylinder match is a hyperboloid. The upper
-    line (the whole finger's angle, eq. 2.3's quantity) is used: on simulated grasps it split
-    the two shapes 81% right against 59% for the lower line (J3 alone, which mostly says where
-    the knuckle meets the object)."""
+    """Bulge above which a hyperboloid/cylinder match is a hyperboloid."""
+    integral_line: str = "upper"
+    """Whose bulge the integral rule reads: "upper" (the whole finger's angle, eq. 2.3's
+    quantity), "lower" (J3 alone) or "none" (rule off, nearest pattern only).
+    ``tools/invariance.py`` keeps whichever splits the simulated grasps best."""
     source: str = "defaults"
+
+    def __post_init__(self) -> None:
+        if self.integral_line not in INTEGRAL_LINES:
+            raise UsageError(
+                f"integral_line must be one of {', '.join(INTEGRAL_LINES)}, "
+                f"got {self.integral_line!r}"
+            )
 
 
 @cache
@@ -235,6 +245,7 @@ def load_thresholds() -> Thresholds:
     return Thresholds(
         correspondence=float(doc["correspondence_threshold"]),
         integral=float(doc["integral_threshold"]),
+        integral_line=str(doc.get("integral_line", "upper")),
         source="data/identification.json",
     )
 
@@ -247,7 +258,7 @@ class Identification:
     nearest: str
     distances: dict[str, float] = field(default_factory=dict)
     bulge: float = 0.0
-    """The signature's upper-line bulge, the integral rule's input."""
+    """The bulge the integral rule read (upper line when the rule is off)."""
     integral_rule: bool = False
     """True when the integral rule chose between hyperboloid and cylinder."""
 
@@ -265,12 +276,14 @@ def identify(
     distances = {name: signature_distance(signature, ref) for name, ref in lib.items()}
     nearest = min(distances, key=distances.__getitem__)
     name, ruled = nearest, False
-    if nearest in INTEGRAL_PAIR and all(n in lib for n in INTEGRAL_PAIR):
-        name = INTEGRAL_PAIR[0] if signature.bulge_upper > th.integral else INTEGRAL_PAIR[1]
+    line = th.integral_line
+    bulge = signature.bulge_lower if line == "lower" else signature.bulge_upper
+    if line != "none" and nearest in INTEGRAL_PAIR and all(n in lib for n in INTEGRAL_PAIR):
+        name = INTEGRAL_PAIR[0] if bulge > th.integral else INTEGRAL_PAIR[1]
         ruled = True
     if distances[nearest] > th.correspondence:
         name = "unknown"
-    return Identification(name, nearest, distances, signature.bulge_upper, ruled)
+    return Identification(name, nearest, distances, bulge, ruled)
 
 
 def signature_summary(record) -> dict:

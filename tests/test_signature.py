@@ -157,3 +157,18 @@ def test_signature_of_a_record_reads_j3_j2_j1_of_the_four_fingers():
     sig = signature_of(_record(final))
     np.testing.assert_array_equal(sig.fci, fci(angles))
     assert sig.vector().shape == (400,)
+
+
+def test_grasp_signature_figure_is_a_png_and_a_bad_path_is_a_usage_error(tmp_path):
+    from tactile_bullet.errors import UsageError
+    from tactile_bullet.figures_signature import plot_grasp_signature
+
+    angles = theoretical_angles("cone")
+    final = np.zeros(len(JOINT_NAMES))
+    for col, finger in enumerate(LONG_FINGERS):
+        for row, joint in enumerate(FCI_JOINTS[finger]):
+            final[JOINT_NAMES.index(joint)] = angles[row, col]
+    out = plot_grasp_signature(_record(final), tmp_path / "sig.png")
+    assert out.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    with pytest.raises(UsageError, match="cannot write"):
+        plot_grasp_signature(_record(final), tmp_path / "missing" / "sig.png")

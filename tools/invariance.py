@@ -10,8 +10,8 @@ grasp's signature and its DTW distances to the five theoretical patterns, and re
 - the distance of each shape's signatures to every pattern (thesis Fig. 2.21) and the same for
   the modified shapes ovoid and hexagonal pyramid (Fig. 2.27), in docs/img/;
 - the identification thresholds (integral rule: the mean of the hyperboloid's and cylinder's
-  mean upper-line bulge, as the thesis set it; correspondence: the largest distance of a
-  correct match),
+  mean bulge, as the thesis set it, on whichever line, lower or upper, splits them best, or
+  off if neither helps; correspondence: the largest distance of a correct match),
   written to tactile_bullet/data/identification.json for ``patterns.identify``.
 
 Usage: python tools/invariance.py [--workers 2] [--cache /tmp/invariance.json] [--quick]

@@ -168,3 +168,19 @@ def test_platt_sigmoid_minimises_the_smoothed_log_loss():
     reference = minimize(loss, [0.0, 0.0], method="Nelder-Mead", options={"xatol": 1e-8}).x
     np.testing.assert_allclose(platt_sigmoid(f, positive), reference, atol=1e-3)
     assert platt_sigmoid(f, positive)[0] < 0  # larger decision value, more likely positive
+
+
+@pytest.mark.parametrize("weights", ["distance", "uniform"])
+def test_knn_votes_like_scikit_learns_on_standardised_features(weights, features, synthetic_split):
+    from sklearn.neighbors import KNeighborsClassifier
+    from sklearn.preprocessing import StandardScaler
+
+    train, test = synthetic_split
+    X_train, X_test = features("signature")
+    y = [r.shape for r in train]
+    ours = plugins.get_classifier("knn", n_neighbors=4, weights=weights).fit(X_train, y)
+    scaler = StandardScaler().fit(X_train)
+    reference = KNeighborsClassifier(4, weights=weights).fit(scaler.transform(X_train), y)
+    np.testing.assert_allclose(
+        ours.predict_proba(X_test), reference.predict_proba(scaler.transform(X_test)), atol=1e-12
+    )

@@ -77,21 +77,21 @@ def plot_signature(sig, path: str | Path, reference=None, title: str = "", dpi: 
 
 
 def plot_grasp_signature(record, path: str | Path, dpi: int = 90) -> Path:
-    """One grasp's signature against the theoretical pattern of its shape (or of the nearest
-    pattern when its shape has none), titled with the identification."""
-    from .patterns import default_library, identify
+    """One grasp's signature against the theoretical pattern of its shape at the matching size
+    (or the nearest pattern's when its shape has none), titled with the identification."""
+    from .patterns import closest_in_size, identify, size_matched_library
     from .signature import signature_of
 
     sig = signature_of(record)
-    lib = default_library()
-    ident = identify(sig, lib)
+    lib = size_matched_library()
+    ident = identify(sig)
     own = record.shape if record.shape in lib else ident.nearest
     near = ident.nearest
     title = (
         f"{record.shape}: nearest pattern {near} (d = {ident.distances[near]:.1f}), "
         f"identified as {ident.name}; dashed: {own} pattern"
     )
-    return plot_signature(sig, path, lib[own], title, dpi)
+    return plot_signature(sig, path, closest_in_size(sig, lib[own]), title, dpi)
 
 
 def plot_patterns(path: str | Path, dpi: int = 90) -> Path:

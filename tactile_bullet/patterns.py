@@ -20,7 +20,8 @@ Either way, the angles go through exactly the pipeline of measured ones
 (``signature.signature_from_angles``).
 
 Identification: dynamic time warping (dtaidistance's C implementation) between each enhanced
-line and the pattern's, summed over both lines; the nearest pattern wins if it lies within the
+line and the pattern's (each shape's pattern taken at the size whose whole-finger level is
+nearest the grasp's), summed over both lines; the nearest pattern wins if it lies within the
 correspondence threshold, else "unknown"; between hyperboloid and cylinder the signature's
 bulge (the thesis' integral rule) decides. Both thresholds come from simulated grasps
 (``tools/invariance.py`` writes ``data/identification.json``).
@@ -29,7 +30,7 @@ bulge (the thesis' integral rule) decides. Both thresholds come from simulated g
 from __future__ import annotations
 
 import json
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from functools import cache
 from importlib import resources
@@ -196,6 +197,49 @@ def default_library(model: str = "hand") -> dict[str, Signature]:
     return {name: pattern(name, model=model) for name in THESIS_SHAPES}
 
 
+FAMILY_SIZES = 6
+"""Sizes per shape in a pattern family: every parameter at 0, 20, ..., 100% of its range."""
+
+
+def pattern_family(
+    shape: str | Shape, sizes: int = FAMILY_SIZES, model: str = "hand"
+) -> tuple[Signature, ...]:
+    """The shape's pattern at its default size and at ``sizes`` sizes across its ranges
+    (every parameter at the same fraction; combinations the shape refuses are skipped)."""
+    spec = _shape(shape)
+    members = [pattern(spec, None, model)]
+    for t in np.linspace(0.0, 1.0, sizes):
+        params = {k: p.min + t * (p.max - p.min) for k, p in spec.params.items()}
+        try:
+            members.append(pattern(spec, params, model))
+        except ValueError:
+            continue
+    return tuple(members)
+
+
+@cache
+def size_matched_library(model: str = "hand") -> dict[str, tuple[Signature, ...]]:
+    """Pattern families of the five thesis shapes: :func:`identify`'s default library."""
+    return {name: pattern_family(name, model=model) for name in THESIS_SHAPES}
+
+
+def closest_in_size(signature: Signature, family) -> Signature:
+    """The member of a pattern family whose whole-finger level (mean raw upper line, grey
+    levels) is nearest the signature's: the theory at the size the hand felt.
+
+    The enhancement removes size, but the hand's own tilt (knuckle heights) does not scale
+    with it, so the normalised pattern of a small cylinder differs from a large one's;
+    matching the level picks the right one without knowing the size.
+    """
+    if isinstance(family, Signature):
+        return family
+    members = tuple(family)
+    if not members:
+        raise UsageError("a pattern family is empty")
+    level = float(np.mean(signature.raw_upper))
+    return min(members, key=lambda m: abs(float(np.mean(m.raw_upper)) - level))
+
+
 def dtw_distance(a, b, window: float = DTW_WINDOW) -> float:
     """DTW distance between two lines (Euclidean DTW, dtaidistance; C path when compiled)."""
     from dtaidistance import dtw
@@ -265,15 +309,22 @@ class Identification:
 
 def identify(
     signature: Signature,
-    library: Mapping[str, Signature] | None = None,
+    library: Mapping[str, Signature | Sequence[Signature]] | None = None,
     thresholds: Thresholds | None = None,
 ) -> Identification:
-    """Nearest theoretical pattern by DTW, "unknown" beyond the correspondence threshold."""
-    lib = default_library() if library is None else library
+    """Nearest theoretical pattern by DTW, "unknown" beyond the correspondence threshold.
+
+    ``library`` maps a shape to one pattern or to a family of patterns at several sizes (the
+    default, :func:`size_matched_library`), of which the one nearest in level is compared.
+    """
+    lib = size_matched_library() if library is None else library
     if not lib:
         raise UsageError("the pattern library is empty")
     th = load_thresholds() if thresholds is None else thresholds
-    distances = {name: signature_distance(signature, ref) for name, ref in lib.items()}
+    distances = {
+        name: signature_distance(signature, closest_in_size(signature, ref))
+        for name, ref in lib.items()
+    }
     nearest = min(distances, key=distances.__getitem__)
     name, ruled = nearest, False
     line = th.integral_line

@@ -36,8 +36,8 @@ sys.path.insert(0, str(ROOT))
 from tactile_bullet.patterns import (  # noqa: E402
     INTEGRAL_PAIR,
     Thresholds,
-    default_library,
     identify,
+    size_matched_library,
 )
 from tactile_bullet.shapes import BUILTIN_SHAPES, THESIS_SHAPES  # noqa: E402
 from tactile_bullet.signature import signature_from_angles  # noqa: E402
@@ -120,7 +120,7 @@ def analyse(rows: list[dict]) -> dict:
     cylinder's mean bulge (the thesis' rule); the line kept is the one that gets the most of
     those two shapes right, "none" (rule off) if neither beats the nearest pattern alone.
     """
-    lib = default_library()
+    lib = size_matched_library()
     graspable = [r for r in rows if "angles" in r]
     sigs = {}
     for k, row in enumerate(graspable):

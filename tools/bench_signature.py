@@ -3,7 +3,7 @@
 Prints the median time (over repeats, after a warm-up) of:
 - the signature from final joint angles (FCI, cubic upscaling, two enhanced lines, bulges);
 - one DTW distance between two 200-point lines (dtaidistance, C path, 10% band);
-- identification against the five patterns (10 DTW distances and the integral rule);
+- identification against the five size-matched patterns (10 DTW distances, integral rule);
 
 Usage: python tools/bench_signature.py [--repeat 2000]
 """
@@ -50,7 +50,7 @@ def main() -> None:
     t_sig = per_call(signature_from_angles, angles, args.repeat)
     pairs = [(s.upper, r.upper) for s in sigs[:8] for r in lib.values()]
     t_dtw = per_call(dtw_distance, pairs, args.repeat)
-    t_id = per_call(lambda s: identify(s, lib), [(s,) for s in sigs], args.repeat // 4)
+    t_id = per_call(identify, [(s,) for s in sigs], args.repeat // 4)
     print(f"signature from angles:  {t_sig * 1e3:.3f} ms per grasp")
     print(f"DTW, 200-point lines:   {t_dtw * 1e3:.3f} ms per pair")
     print(f"identify (5 patterns):  {t_id * 1e3:.3f} ms per grasp")

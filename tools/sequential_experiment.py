@@ -184,6 +184,10 @@ def experiment(X: np.ndarray, y: np.ndarray, names: list[str], args: argparse.Na
         f"mean disturbance (off-diagonal): {np.nanmean(matrix):+.3f}, "
         f"worst {np.nanmin(matrix):+.3f}"
     )
+    print("disturbance D[a, b] (row a added, column b):")
+    print("        " + " ".join(f"{name[:7]:>7}" for name in names))
+    for name, row in zip(names, matrix, strict=True):
+        print(f"{name[:7]:>7} " + " ".join(f"{value:+7.3f}" for value in row))
     return {"results": results, "orders": orders, "disturbance": matrix}
 
 

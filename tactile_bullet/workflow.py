@@ -43,8 +43,10 @@ def records_from(path: str | os.PathLike) -> list[GraspRecord]:
     if path.is_file():
         return [load_record(path)]
     if _is_dataset(path):
-        from .dataset import load_dataset
-
+        try:
+            from .dataset import load_dataset
+        except ImportError:
+            raise UsageError(f"{path} is a dataset but this install cannot read datasets") from None
         records = list(load_dataset(path))
     else:
         files = sorted(path.glob("*.npz"))

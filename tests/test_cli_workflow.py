@@ -217,3 +217,13 @@ def test_identify_rejects_a_bad_pose_or_size(model_file, capsys):
     assert "out of range" in run_error(capsys, [*base, "--param", "radius=2"])
     assert "unknown shape" in run_error(capsys, ["identify", "--model", str(model_file),
                                                  "--shape", "dodecahedron"])  # fmt: skip
+
+
+def test_report_or_demo_folder_that_is_a_file_fails_before_any_work(folders, model_file, capsys):
+    _, _, test = folders
+    blocker = model_file.parent / "a-file"
+    blocker.write_text("keep me")
+    argv = ["evaluate", "--model", str(model_file), "--data", str(test), "--report", str(blocker)]
+    assert "not a directory" in run_error(capsys, argv)
+    assert "not a directory" in run_error(capsys, ["demo", "--quick", "--out", str(blocker)])
+    assert blocker.read_text() == "keep me"

@@ -84,7 +84,7 @@ def plot_grasp_signature(record, path: str | Path, dpi: int = 90) -> Path:
 
     sig = signature_of(record)
     lib = size_matched_library()
-    ident = identify(sig)
+    ident = identify(sig, lib)
     own = record.shape if record.shape in lib else ident.nearest
     near = ident.nearest
     title = (

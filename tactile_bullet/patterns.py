@@ -314,10 +314,12 @@ def identify(
 ) -> Identification:
     """Nearest theoretical pattern by DTW, "unknown" beyond the correspondence threshold.
 
-    ``library`` maps a shape to one pattern or to a family of patterns at several sizes (the
-    default, :func:`size_matched_library`), of which the one nearest in level is compared.
+    ``library`` maps a shape to one pattern (default: :func:`default_library`, the thesis'
+    one pattern per shape) or to a family of patterns at several sizes
+    (:func:`size_matched_library`, what ``signature_summary`` uses), of which the one nearest
+    in level is compared.
     """
-    lib = size_matched_library() if library is None else library
+    lib = default_library() if library is None else library
     if not lib:
         raise UsageError("the pattern library is empty")
     th = load_thresholds() if thresholds is None else thresholds
@@ -342,7 +344,7 @@ def signature_summary(record) -> dict:
     from .rotation import alpha_of, estimate_rotation_deg, load_calibration
 
     sig = signature_of(record)
-    ident = identify(sig)
+    ident = identify(sig, size_matched_library())
     cal = load_calibration()
     alpha = alpha_of(sig, cal.line if cal is not None else "mean")
     return {

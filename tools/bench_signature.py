@@ -19,7 +19,12 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
-from tactile_bullet.patterns import default_library, dtw_distance, identify  # noqa: E402
+from tactile_bullet.patterns import (  # noqa: E402
+    default_library,
+    dtw_distance,
+    identify,
+    size_matched_library,
+)
 from tactile_bullet.signature import signature_from_angles  # noqa: E402
 
 
@@ -50,7 +55,8 @@ def main() -> None:
     t_sig = per_call(signature_from_angles, angles, args.repeat)
     pairs = [(s.upper, r.upper) for s in sigs[:8] for r in lib.values()]
     t_dtw = per_call(dtw_distance, pairs, args.repeat)
-    t_id = per_call(identify, [(s,) for s in sigs], args.repeat // 4)
+    families = size_matched_library()
+    t_id = per_call(lambda s: identify(s, families), [(s,) for s in sigs], args.repeat // 4)
     print(f"signature from angles:  {t_sig * 1e3:.3f} ms per grasp")
     print(f"DTW, 200-point lines:   {t_dtw * 1e3:.3f} ms per pair")
     print(f"identify (5 patterns):  {t_id * 1e3:.3f} ms per grasp")

@@ -9,8 +9,11 @@ Built-in ones (zeroth-order data: proprioception; first-order: contact normals, 
 
 - ``signature``: the enhanced proprioceptive signature (thesis 2.3), both lines resampled to
   ``points`` each, then each line's bulge (the size-free "integral of the signature" that
-  splits hyperboloid from cylinder), and with ``alpha=True`` each line's slope angle alpha (deg,
-  which carries the object's rotation: off by default so the descriptor stays rotation-free).
+  splits hyperboloid from cylinder); with ``alpha=True`` each line's slope angle alpha (deg,
+  which carries the object's rotation), and with ``level=True`` the mean raw upper line (grey
+  levels: how far the fingers closed, so the object's size), which lets ``dtw-template``
+  compare with the theoretical pattern at the size the hand felt. Both are off by default so
+  the descriptor stays free of rotation and size, as the thesis' signature is.
 - ``raw-joints``: the final angles of the four long fingers (J4..J1, LF J5 too), and the
   thumb's J5..J1 with ``include_thumb=True`` (off by default: the thumb is held at a fixed
   opposed pose, so its angles carry little but noise).
@@ -60,21 +63,25 @@ def resample_line(line: np.ndarray, points: int) -> np.ndarray:
     return np.interp(grid, np.arange(line.size, dtype=float), line)
 
 
-def signature_layout(points: int, alpha: bool) -> list[str]:
+def signature_layout(points: int, alpha: bool = False, level: bool = False) -> list[str]:
     """Feature names of the signature descriptor, in column order."""
     names = [f"lower_{i:03d}" for i in range(points)] + [f"upper_{i:03d}" for i in range(points)]
     names += ["bulge_lower", "bulge_upper"]
     if alpha:
         names += ["alpha_lower_deg", "alpha_upper_deg"]
+    if level:
+        names += ["level_upper"]
     return names
 
 
 @dataclass(frozen=True)
 class SignatureDescriptor:
-    """The enhanced signature: lower line, upper line (``points`` each), bulges[, alphas]."""
+    """The enhanced signature: lower line, upper line (``points`` each), bulges[, alphas]
+    [, level]."""
 
     points: int = SIGNATURE_LINE_POINTS
     alpha: bool = False
+    level: bool = False
     name: ClassVar[str] = "signature"
 
     def __post_init__(self) -> None:
@@ -82,15 +89,18 @@ class SignatureDescriptor:
             raise UsageError(f"signature points must be an integer, got {self.points!r}")
         if not 3 <= self.points <= 200:
             raise UsageError(f"signature points must be from 3 to 200, got {self.points}")
-        if not isinstance(self.alpha, bool | np.bool_):
-            raise UsageError(f"signature alpha must be true or false, got {self.alpha!r}")
+        for flag in ("alpha", "level"):
+            if not isinstance(getattr(self, flag), bool | np.bool_):
+                raise UsageError(
+                    f"signature {flag} must be true or false, got {getattr(self, flag)!r}"
+                )
 
     @property
     def params(self) -> dict:
         return asdict(self)
 
     def feature_names(self) -> list[str]:
-        return signature_layout(self.points, bool(self.alpha))
+        return signature_layout(self.points, bool(self.alpha), bool(self.level))
 
     def transform(self, records) -> np.ndarray:
         from .signature import signature_of
@@ -106,6 +116,8 @@ class SignatureDescriptor:
             ]
             if self.alpha:
                 values.append([sig.alpha_lower, sig.alpha_upper])
+            if self.level:
+                values.append([float(np.mean(sig.raw_upper))])
             out[row] = np.concatenate(values)
         return out
 

@@ -1,13 +1,13 @@
 """Synthetic grasp records from the wrapping theory, so descriptor and classifier tests run
 without the simulator.
 
-A long finger at x on O-O' wraps the cross-section of radius r(x): phalanx i of length l_i turns
-its joint by l_i / (r + pad) (thesis eq. 2.3 shared phalanx by phalanx, capped at 90 deg), and a
-finger beside the object (r = 0) closes to 90 deg on every joint. Its tip touches the surface at
-the angle it has wrapped, where the object's outward normal is (-r'(x), cos phi, sin phi)
-normalised (phi measured in the palm's y-z plane from +y, the palm side). The thumb touches the
-object from below. Sizes are drawn across each shape's valid range, the object is offset along
-O-O', and Gaussian noise is added to angles and normals.
+Joint angles are the theory's (``patterns.theoretical_angles``, the hand model: each long
+finger wraps the cross-section of radius r(x) at its own place on O-O', theta = s / r shared
+phalanx by phalanx from the hand's own knuckles; a finger beside the object closes to 90 deg).
+Its tip touches the surface at the angle it has wrapped, where the object's outward normal is
+(-r'(x), cos phi, sin phi) normalised (phi in the palm's y-z plane from +y, the palm side). The
+thumb touches the object from below. Sizes are drawn across each shape's valid range, the object
+is offset along O-O', and Gaussian noise is added to angles and normals.
 """
 
 from __future__ import annotations
@@ -16,12 +16,9 @@ from collections.abc import Mapping, Sequence
 
 import numpy as np
 
-from tactile_bullet.hand import FINGER_X, JOINT_NAMES, LONG_FINGERS, PHALANX_LENGTHS, THUMB_OPPOSED
+from tactile_bullet.hand import FINGER_X, JOINT_NAMES, LONG_FINGERS, THUMB_OPPOSED
 from tactile_bullet.records import ControllerSettings, GraspRecord, Pose
 from tactile_bullet.shapes import BUILTIN_SHAPES, THESIS_SHAPES
-
-PAD = 0.009
-"""Phalanx axis to pad surface (m)."""
 
 START_PHI = 0.2
 """Where the finger first meets the object, from the palm side (rad)."""
@@ -55,13 +52,17 @@ def make_record(
     samples: int = 12,
 ) -> GraspRecord:
     """One synthetic record of ``shape`` (default sizes unless ``params``)."""
+    from tactile_bullet.patterns import theoretical_angles
+
     rng = np.random.default_rng(0) if rng is None else rng
     spec = SHAPES[shape]
     values = spec.resolve(params)
+    pose = Pose((offset_x, 0.0, 0.0))
+    wrapped = theoretical_angles(spec, values, pose=pose)
     final = np.zeros(len(JOINT_NAMES))
     index = {n: i for i, n in enumerate(JOINT_NAMES)}
     links, normals, positions, forces, touching = [], [], [], [], []
-    for finger in LONG_FINGERS:
+    for column, finger in enumerate(LONG_FINGERS):
         x = FINGER_X[finger] - offset_x
         r = float(spec.radius(np.array([x]), **values)[0])
         slope = float(
@@ -71,9 +72,7 @@ def make_record(
             )
             / 2e-4
         )
-        lengths = np.asarray(PHALANX_LENGTHS)
-        theta = np.minimum(lengths / (r + PAD), np.pi / 2) if r > 0 else np.full(3, np.pi / 2)
-        theta = theta + rng.normal(0.0, noise, 3)
+        theta = wrapped[:, column] + rng.normal(0.0, noise, 3)
         name = finger.upper()
         for joint, angle in zip(("J3", "J2", "J1"), theta, strict=True):
             final[index[f"{name}{joint}"]] = angle
@@ -101,7 +100,7 @@ def make_record(
     return GraspRecord(
         shape=shape,
         params=values,
-        pose=Pose((offset_x, 0.0, 0.0)),
+        pose=pose,
         controller=ControllerSettings(),
         seed=0,
         time=np.linspace(0.0, 1.0, samples),

@@ -120,26 +120,27 @@ def test_dtw_template_only_knows_registered_shapes_and_the_signature_layout(feat
     X_train, _ = features("signature")
     with pytest.raises(ValueError, match="'teapot'"):
         plugins.get_classifier("dtw-template").fit(X_train[:2], ["cone", "teapot"])
-    with pytest.raises(ValueError, match="102 columns"):
+    with pytest.raises(ValueError, match="102 to 105 columns"):
         plugins.get_classifier("dtw-template").fit(X_train[:2, :20], ["cone", "torus"])
 
 
-def test_dtw_template_matches_the_pattern_identifier():
-    from tactile_bullet import patterns
-    from tactile_bullet.descriptors import resample_line
+@pytest.mark.parametrize("level", [False, True])
+def test_dtw_template_decides_as_the_pattern_identifier(level):
+    """At full resolution, dtw-template names what ``patterns.identify`` names: with the level
+    column against the size-matched families, without it against default-size patterns."""
+    import dataclasses
 
-    shapes = ["cone", "torus", "sphere", "hyperboloid", "cylinder"]
-    records = make_records(shapes, per_shape=2, seed=9, noise=0.0)
-    X = plugins.get_descriptor("signature", points=200).transform(records)
-    estimator = plugins.get_classifier("dtw-template", points=200).fit(
-        X, [r.shape for r in records]
-    )
+    from tactile_bullet import patterns
     from tactile_bullet.signature import signature_of
 
+    records = make_records(per_shape=2, seed=9)
+    X = plugins.get_descriptor("signature", points=200, level=level).transform(records)
+    estimator = plugins.get_classifier("dtw-template", points=200)
+    estimator.fit(X, [r.shape for r in records])
+    thresholds = dataclasses.replace(patterns.load_thresholds(), correspondence=float("inf"))
+    library = patterns.size_matched_library() if level else patterns.default_library()
     for record, predicted in zip(records, estimator.predict(X), strict=True):
-        ident = patterns.identify(signature_of(record))
-        assert predicted in (ident.name, ident.nearest)
-    assert resample_line(np.arange(5.0), 5).tolist() == [0, 1, 2, 3, 4]
+        assert predicted == patterns.identify(signature_of(record), library, thresholds).name
 
 
 def test_classifier_parameters_go_through_the_registry():

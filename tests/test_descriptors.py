@@ -35,19 +35,35 @@ def test_signature_is_both_enhanced_lines_then_the_bulges(records):
     assert X[0, 100] == pytest.approx(sig.bulge_lower)
 
 
-def test_signature_points_and_alpha_change_the_layout(records):
+def test_signature_points_alpha_and_level_change_the_layout(records):
+    from tactile_bullet.signature import signature_of
+
     desc = plugins.get_descriptor("signature", points=10, alpha=True)
     X = desc.transform(records[:2])
     assert X.shape == (2, 24)
     assert desc.feature_names()[-2:] == ["alpha_lower_deg", "alpha_upper_deg"]
+    sig = signature_of(records[0])
+    assert X[0, -2:] == pytest.approx([sig.alpha_lower, sig.alpha_upper])
+    sized = plugins.get_descriptor("signature", points=10, alpha=True, level=True)
+    assert sized.feature_names()[-1] == "level_upper"
+    assert sized.transform(records[:1])[0, -1] == pytest.approx(np.mean(sig.raw_upper))
     for bad in (2, 500, 1.5, "ten"):
         with pytest.raises(UsageError, match="points"):
             plugins.get_descriptor("signature", points=bad)
 
 
-def test_a_cylinder_held_without_noise_has_a_flat_signature():
-    X = plugins.get_descriptor("signature").transform([make_record("cylinder", noise=0.0)])
-    np.testing.assert_allclose(X[0, :100], 0.0, atol=1e-9)
+def test_signature_lines_follow_the_shape_not_its_size():
+    """The enhancement removes size: two cylinders far apart in radius give nearly the same
+    lines, while a cone's differ from both (noise-free records)."""
+    desc = plugins.get_descriptor("signature")
+    small, large, cone = desc.transform(
+        [
+            make_record("cylinder", {"radius": 0.025}, noise=0.0),
+            make_record("cylinder", {"radius": 0.05}, noise=0.0),
+            make_record("cone", noise=0.0),
+        ]
+    )[:, :100]
+    assert np.abs(small - large).mean() < 0.5 * np.abs(small - cone).mean()
 
 
 def test_raw_joints_are_the_final_angles_of_the_named_joints(records):

@@ -169,6 +169,7 @@ def test_combination_parameters_reach_the_right_part():
     assert desc.params == {
         "signature.points": 10,
         "signature.alpha": False,
+        "signature.level": False,
         "raw-joints.include_thumb": True,
     }
     again = plugins.get_descriptor(desc.name, **desc.params)

@@ -1,14 +1,19 @@
 """``dtw-template``: the training-free identifier (thesis 2.3.1) as an estimator.
 
-Each class must be a registered shape; its template is that shape's theoretical signature
-(``patterns.pattern``, default sizes), and a grasp goes to the nearest template by DTW
-(``patterns.identify``, with the integral rule between hyperboloid and cylinder). ``fit``
-learns nothing: it records the classes and builds their templates, so a model can be "trained"
-on a handful of grasps and still be a fair baseline. It reads the ``signature`` descriptor's
-layout (lower line, upper line, bulges[, alphas]) and nothing else.
+Each class must be a registered shape; its templates are that shape's theoretical signatures,
+and a grasp goes to the nearest by DTW (``patterns.identify``, with the measured integral rule
+between hyperboloid and cylinder). Without a size cue the template is the pattern at the
+shape's default size (the thesis' library); when the signature descriptor carries its level
+column (``level=True``) each class holds a family of sizes (``patterns.pattern_family``) and
+the member at the level the hand felt is compared, as ``tactile-bullet grasp`` identifies.
+``fit`` learns nothing: it records the classes and builds their templates, so a model can be
+"trained" on a handful of grasps and still be a fair baseline. It reads the ``signature``
+descriptor's layout (lines, bulges[, alphas][, level]) and nothing else.
 """
 
 from __future__ import annotations
+
+import dataclasses
 
 import numpy as np
 from sklearn.base import BaseEstimator, ClassifierMixin
@@ -38,10 +43,10 @@ _ANY_FIT = (
 )
 
 
-def _signature(lower, upper, bulge_lower=0.0, bulge_upper=0.0):
+def _signature(lower, upper, bulge_lower=0.0, bulge_upper=0.0, level=0.0):
+    """A Signature holding what identification reads: lines, bulges and the raw upper level."""
     from ..signature import Signature
 
-    empty = np.zeros(0)
     return Signature(
         lower=np.asarray(lower, dtype=float),
         upper=np.asarray(upper, dtype=float),
@@ -49,8 +54,8 @@ def _signature(lower, upper, bulge_lower=0.0, bulge_upper=0.0):
         alpha_upper=0.0,
         bulge_lower=float(bulge_lower),
         bulge_upper=float(bulge_upper),
-        raw_lower=empty,
-        raw_upper=empty,
+        raw_lower=np.zeros(1),
+        raw_upper=np.array([float(level)]),
         fci=np.zeros((3, 4)),
     )
 
@@ -63,7 +68,8 @@ class DTWTemplateClassifier(ClassifierMixin, BaseEstimator):
     into probabilities, p ~ exp(-d / temperature); ``integral_rule`` applies the bulge rule
     between hyperboloid and cylinder (thesis Fig. 2.22).
 
-    Fitted attributes: ``classes_``, ``templates_`` (n_classes, 2, points) the lines compared.
+    Fitted attributes: ``classes_``; ``templates_`` (m, 2, points) the lines compared,
+    ``template_class_`` (m,) the class index of each and ``template_level_`` (m,) its level.
     """
 
     required_descriptor = "signature"
@@ -82,10 +88,11 @@ class DTWTemplateClassifier(ClassifierMixin, BaseEstimator):
         p = self.points
         if isinstance(p, bool) or not isinstance(p, int | np.integer) or p < 3:
             raise ValueError(f"dtw-template points must be an integer >= 3, got {p!r}")
-        if n_features not in (2 * p + 2, 2 * p + 4):
+        if not 2 * p + 2 <= n_features <= 2 * p + 5:
             raise ValueError(
-                f"dtw-template expects the signature descriptor's {2 * p + 2} columns "
-                f"(2 lines x {p} points + 2 bulges, or + 2 alphas), got {n_features}"
+                f"dtw-template expects the signature descriptor's {2 * p + 2} to {2 * p + 5} "
+                f"columns (2 lines x {p} points, 2 bulges, optional 2 alphas and level), "
+                f"got {n_features}"
             )
         if not (np.isfinite(self.temperature) and self.temperature > 0):
             raise ValueError(f"temperature must be a positive number, got {self.temperature!r}")
@@ -99,8 +106,9 @@ class DTWTemplateClassifier(ClassifierMixin, BaseEstimator):
         from ..plugins import get_shape
 
         self.classes_ = np.unique(y)
-        templates = []
-        for label in self.classes_:
+        sized = self._has_level(X.shape[1])
+        templates, owners, levels = [], [], []
+        for index, label in enumerate(self.classes_):
             try:
                 shape = get_shape(str(label))
             except ValueError:
@@ -108,12 +116,21 @@ class DTWTemplateClassifier(ClassifierMixin, BaseEstimator):
                     f"dtw-template has no theoretical pattern for class {label!r}: "
                     "classes must be registered shape names"
                 ) from None
-            ref = patterns.pattern(shape)
-            templates.append(
-                [resample_line(ref.lower, self.points), resample_line(ref.upper, self.points)]
-            )
+            family = patterns.pattern_family(shape) if sized else (patterns.pattern(shape),)
+            for ref in family:
+                templates.append(
+                    [resample_line(ref.lower, self.points), resample_line(ref.upper, self.points)]
+                )
+                owners.append(index)
+                levels.append(float(np.mean(ref.raw_upper)))
         self.templates_ = np.asarray(templates, dtype=float)
+        self.template_class_ = np.asarray(owners, dtype=int)
+        self.template_level_ = np.asarray(levels, dtype=float)
         return self
+
+    def _has_level(self, n_features: int) -> bool:
+        """Whether the last column is the level: 1 or 3 columns after the lines and bulges."""
+        return (n_features - 2 * int(self.points) - 2) in (1, 3)
 
     def distances(self, X) -> np.ndarray:
         """(n, n_classes) DTW distances to each class template, after the integral rule
@@ -124,19 +141,32 @@ class DTWTemplateClassifier(ClassifierMixin, BaseEstimator):
 
         p = self.points
         names = [str(c) for c in self.classes_]
-        library = {n: _signature(*t) for n, t in zip(names, self.templates_, strict=True)}
-        thresholds = patterns.Thresholds(
-            correspondence=float("inf"), integral=patterns.load_thresholds().integral
-        )
+        library = {
+            name: tuple(
+                _signature(lines[0], lines[1], level=level)
+                for lines, owner, level in zip(
+                    self.templates_, self.template_class_, self.template_level_, strict=True
+                )
+                if owner == index
+            )
+            for index, name in enumerate(names)
+        }
+        # every class is a candidate: no "unknown" beyond a correspondence threshold
+        thresholds = dataclasses.replace(patterns.load_thresholds(), correspondence=float("inf"))
         pair = patterns.INTEGRAL_PAIR
+        sized = self._has_level(X.shape[1])
         out = np.empty((len(X), len(names)))
         for row, x in enumerate(X):
-            sig = _signature(x[:p], x[p : 2 * p], x[2 * p], x[2 * p + 1])
+            level = x[-1] if sized else 0.0
+            sig = _signature(x[:p], x[p : 2 * p], x[2 * p], x[2 * p + 1], level)
             if self.integral_rule:
                 ident = patterns.identify(sig, library, thresholds)
                 dist = ident.distances
             else:
-                dist = {n: patterns.signature_distance(sig, ref) for n, ref in library.items()}
+                dist = {
+                    n: patterns.signature_distance(sig, patterns.closest_in_size(sig, family))
+                    for n, family in library.items()
+                }
                 ident = None
             if ident is not None and ident.integral_rule:
                 near, far = sorted(dist[n] for n in pair)

@@ -95,17 +95,21 @@ class _Registry:
 
     def add(self, plugin: object, name: str, version: str | None, builtin: bool) -> str | None:
         """Register one plugin and run its hooks; all or nothing. Returns the error, if any."""
+        if name in self.infos or self.pm.has_plugin(name):
+            return f"a plugin named {name!r} is already registered"
         info = _PluginInfo(name, version, builtin)
         self.infos[name] = info
         staged: dict[str, dict[str, _Entry]] = {kind: {} for kind in KINDS}
         try:
-            if self.pm.has_plugin(name):
-                raise PluginError(f"a plugin named {name!r} is already registered")
             self.pm.register(plugin, name=name)
         except Exception as exc:  # noqa: BLE001 - any failure of a plugin is reported, not raised
             info.error = _describe(exc)
             return info.error
         try:
+            try:
+                self.pm.check_pending()  # a misspelt hook name would otherwise do nothing
+            except pluggy.PluginValidationError as exc:
+                raise PluginError(str(exc)) from exc
             for kind, hook in KINDS.items():
                 for impl in getattr(self.pm.hook, hook).get_hookimpls():
                     if impl.plugin_name != name:
@@ -265,9 +269,11 @@ def register_plugin(plugin: object, name: str | None = None) -> str:
     """
     registry = _loaded()
     name = name or getattr(plugin, "__name__", None) or f"plugin-{id(plugin):x}"
+    taken = name in registry.infos
     error = registry.add(plugin, name, getattr(plugin, "__version__", None), builtin=False)
     if error:
-        registry.infos.pop(name, None)
+        if not taken:
+            registry.infos.pop(name, None)
         raise PluginError(f"plugin {name!r}: {error}")
     return name
 

@@ -142,6 +142,24 @@ def test_a_hook_that_raises_is_refused_and_the_rest_keeps_working(register_test_
     assert "cone" in plugins.shape_names()
 
 
+def test_a_misspelt_hook_is_reported_not_ignored(register_test_plugin):
+    class Plugin:
+        @hookimpl
+        def register_classifier(self, register):  # missing "s"
+            register("never", lambda **p: None)
+
+    with pytest.raises(plugins.PluginError, match="register_classifier"):
+        register_test_plugin(Plugin(), "test-typo")
+
+
+def test_a_taken_plugin_name_leaves_the_first_plugin_alone():
+    with pytest.raises(plugins.PluginError, match="already registered"):
+        plugins.register_plugin(object(), "tactile_bullet.descriptors")
+    entry = next(p for p in plugins.plugin_report() if p["name"] == "tactile_bullet.descriptors")
+    assert "signature" in entry["descriptors"] and "error" not in entry
+    assert "signature" in plugins.descriptor_names()
+
+
 def test_unknown_names_list_what_is_available():
     with pytest.raises(UsageError, match="svm") as info:
         plugins.get_classifier("no-such-classifier")

@@ -40,8 +40,9 @@ _PROBA_FLOOR = 1e-7
 
 _SMALL_STEP = 10_000_000
 """Multiply-adds per routing step below which training runs on one torch thread. Measured on 2
-shared cores: a 64-sample step over 28 trees of depth 4 took 3-10 ms on one thread and 40-140 ms
-on two (thread wake-ups dominate such tiny kernels); only steps a hundred times larger broke even.
+busy cores: a 64-sample step over 28 trees of depth 4 (0.5 M) took 3-10 ms on one thread and
+40-140 ms on two (thread wake-ups dominate such tiny kernels); a 72 M step was still faster on one
+thread, a 720 M one broke even. Larger problems keep torch's own setting.
 """
 
 _PREDICT_CHUNK = 4096

@@ -25,7 +25,11 @@ import numpy as np
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 
-from tactile_bullet.patterns import theoretical_angles  # noqa: E402
+from tactile_bullet.patterns import (  # noqa: E402
+    identify,
+    size_matched_library,
+    theoretical_angles,
+)
 from tactile_bullet.records import Pose  # noqa: E402
 from tactile_bullet.rotation import LINES, alpha_of, fit_calibration, save_calibration  # noqa: E402
 from tactile_bullet.shapes import BUILTIN_SHAPES  # noqa: E402
@@ -108,6 +112,12 @@ def main() -> None:
     for r in refused:
         print(f"  refused: {r['shape']} t={r['t']} {r['deg']} deg: {r['error'][:70]}")
     sigs = [signature_from_angles(np.array(r["angles"])) for r in rows]
+    library = size_matched_library()
+    named = [identify(sig, library).name == r["shape"] for sig, r in zip(sigs, rows, strict=True)]
+    by_deg = {d: np.mean([ok for ok, r in zip(named, rows, strict=True) if r["deg"] == d])
+              for d in ROTATIONS_DEG}  # fmt: skip
+    print("identified (training-free) by rotation: "
+          + ", ".join(f"{d} deg {v:.0%}" for d, v in by_deg.items()))  # fmt: skip
     actual = [r["deg"] for r in rows]
     names = [r["shape"] for r in rows]
     fits = {}

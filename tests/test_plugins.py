@@ -64,6 +64,7 @@ def test_hook_register_descriptors(register_test_plugin, synthetic_split):
     assert plugins.plugin_of("descriptors", "test-closure") == name
 
 
+@pytest.mark.filterwarnings("ignore:self.within_class_std_dev_")
 def test_hook_register_classifiers(register_test_plugin, synthetic_split):
     from sklearn.neighbors import NearestCentroid
 

@@ -349,11 +349,18 @@ def _build_descriptor(name: str, params: Mapping[str, Any]):
             f"(parameters: {', '.join(valid) or 'none'})"
         )
     try:
-        return entry.value(**params)
+        descriptor = entry.value(**params)
     except UsageError:
         raise
     except (TypeError, ValueError) as exc:
         raise UsageError(f"descriptor {name!r}: {exc}") from None
+    if getattr(descriptor, "name", None) != name:
+        # models store the descriptor's own name: it must find the same entry again
+        raise PluginError(
+            f"descriptor {name!r} from plugin {entry.plugin!r} calls itself "
+            f"{getattr(descriptor, 'name', None)!r}"
+        )
+    return descriptor
 
 
 def get_descriptor(name: str, **params):

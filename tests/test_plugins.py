@@ -143,6 +143,17 @@ def test_a_hook_that_raises_is_refused_and_the_rest_keeps_working(register_test_
     assert "cone" in plugins.shape_names()
 
 
+def test_a_descriptor_must_carry_its_registered_name(register_test_plugin):
+    class Plugin:
+        @hookimpl
+        def register_descriptors(self, register):
+            register("test-alias", ClosureDescriptor)  # whose name is "test-closure"
+
+    register_test_plugin(Plugin(), "test-alias-plugin")
+    with pytest.raises(plugins.PluginError, match="calls itself 'test-closure'"):
+        plugins.get_descriptor("test-alias")
+
+
 def test_a_misspelt_hook_is_reported_not_ignored(register_test_plugin):
     class Plugin:
         @hookimpl

@@ -227,3 +227,29 @@ def test_report_or_demo_folder_that_is_a_file_fails_before_any_work(folders, mod
     assert "not a directory" in run_error(capsys, argv)
     assert "not a directory" in run_error(capsys, ["demo", "--quick", "--out", str(blocker)])
     assert blocker.read_text() == "keep me"
+
+
+def test_commands_read_a_dataset_folder(capsys, tmp_path):
+    from test_workflow import SHAPES, synthetic_record
+
+    from tactile_bullet.dataset import generate
+    from tactile_bullet.sweeps import Sweep
+
+    offsets = [-0.008, -0.004, 0.0, 0.004, 0.008]
+    sweep = Sweep.from_dict(
+        {"name": "t", "shapes": [{"name": s, "offset_x": offsets} for s in SHAPES]}
+    )
+
+    def fake_grasp(task):  # the sweep's own shape and offset, synthetic joint angles
+        rec = synthetic_record(
+            task.shape, 0.5, task.pose.offset[0], np.random.default_rng(task.seed)
+        )
+        return rec.metadata(), rec.arrays()
+
+    generate(sweep, tmp_path / "ds", workers=0, shard_size=4, task_fn=fake_grasp)
+    model = str(tmp_path / "m.npz")
+    doc = run_json(capsys, ["train", "--data", str(tmp_path / "ds"), "--classifier", "knn",
+                            "--out", model])  # fmt: skip
+    assert doc["train_records"] == 15
+    doc = run_json(capsys, ["evaluate", "--model", model, "--data", str(tmp_path / "ds")])
+    assert doc["records"] == 15 and sorted(doc["classes"]) == sorted(SHAPES)

@@ -72,7 +72,7 @@ class Shape:
                     f"[{spec.min:g}, {spec.max:g}] {spec.unit}"
                 )
             out[key] = value
-        _check_consistent(self.name, out)
+        check_consistent(self.name, out)
         return out
 
     def describe(self) -> dict:
@@ -88,7 +88,8 @@ class Shape:
         }
 
 
-def _check_consistent(name: str, p: Mapping[str, float]) -> None:
+def check_consistent(name: str, p: Mapping[str, float]) -> None:
+    """UsageError where sizes within their ranges still make no such solid."""
     if name == "torus" and p["major_radius"] <= p["minor_radius"]:
         raise UsageError("torus major_radius must exceed minor_radius (the hole would close)")
     if name == "hyperboloid" and p["end_radius"] <= p["waist_radius"]:

@@ -1,0 +1,374 @@
+"""Sweeps: which grasps a dataset holds (shapes x sizes x positions x rotations).
+
+A sweep is plain data, read from TOML or taken from a preset, and expands into a list of
+:class:`GraspTask` with one seed each. Every dimension (a size parameter, an offset
+coordinate, the rotation) is either a list of values or a ``{min, max}`` range:
+
+- ``mode = "grid"``: the product of all value lists (a range needs ``steps``: evenly spaced);
+- ``mode = "random"``: ``samples`` tasks per shape, each dimension drawn uniformly from its
+  list or range with the sweep's seeded generator.
+
+Example::
+
+    name = "my-sweep"
+    mode = "grid"
+    [controller]
+    mode = "torque"
+    [[shapes]]
+    name = "cylinder"
+    params = { radius = [0.025, 0.035, 0.045] }
+    offset_x = [-0.005, 0.0, 0.005]
+    rotation_deg = [0, 10, 20]
+
+A size parameter left out takes its default (grid) or its whole valid range (random).
+"""
+
+from __future__ import annotations
+
+import math
+import tomllib
+from collections.abc import Mapping, Sequence
+from dataclasses import asdict, dataclass, field, fields
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from .errors import UsageError
+from .records import ControllerSettings, Pose
+
+Dimension = tuple[float, ...] | dict[str, float]
+"""A list of values, or {"min", "max"} (+ "steps" in grid mode)."""
+
+SHAPE_KEYS = ("name", "params", "offset_x", "offset_y", "offset_z", "rotation_deg", "samples")
+SWEEP_KEYS = ("name", "mode", "samples", "controller", "shapes")
+
+
+@dataclass(frozen=True)
+class GraspTask:
+    """One grasp to simulate: everything ``simulate_grasp`` needs, plus its place in the sweep."""
+
+    index: int
+    shape: str
+    params: dict[str, float]
+    pose: Pose
+    controller: ControllerSettings
+    seed: int
+
+
+@dataclass(frozen=True)
+class ShapeSweep:
+    name: str
+    params: dict[str, Dimension] = field(default_factory=dict)
+    offset_x: Dimension = (0.0,)
+    offset_y: Dimension = (0.0,)
+    offset_z: Dimension = (0.0,)
+    rotation_deg: Dimension = (0.0,)
+    samples: int | None = None
+
+
+@dataclass(frozen=True)
+class Sweep:
+    name: str
+    shapes: tuple[ShapeSweep, ...]
+    mode: str = "grid"
+    samples: int = 10
+    controller: ControllerSettings = field(default_factory=ControllerSettings)
+
+    # --- construction -------------------------------------------------------------------
+
+    @classmethod
+    def from_dict(cls, data: Mapping[str, Any], source: str = "sweep") -> Sweep:
+        """Validate and build; every problem is a UsageError naming the key."""
+        _no_unknown(data, SWEEP_KEYS, source)
+        mode = data.get("mode", "grid")
+        if mode not in ("grid", "random"):
+            raise UsageError(f"{source}: mode must be 'grid' or 'random', got {mode!r}")
+        samples = _positive_int(data.get("samples", 10), f"{source}: samples")
+        controller_data = data.get("controller", {})
+        if not isinstance(controller_data, Mapping):
+            raise UsageError(f"{source}: [controller] must be a table")
+        known = {f.name for f in fields(ControllerSettings)}
+        _no_unknown(controller_data, tuple(known), f"{source}: [controller]")
+        try:
+            controller = ControllerSettings(**controller_data)
+        except TypeError as exc:
+            raise UsageError(f"{source}: [controller] {exc}") from None
+        shapes_data = data.get("shapes")
+        if not isinstance(shapes_data, list) or not shapes_data:
+            raise UsageError(f"{source}: needs at least one [[shapes]] table")
+        shapes = tuple(_shape_sweep(s, mode, f"{source}: shapes[{i}]")
+                       for i, s in enumerate(shapes_data))  # fmt: skip
+        return cls(
+            name=str(data.get("name", "sweep")),
+            shapes=shapes,
+            mode=mode,
+            samples=samples,
+            controller=controller,
+        )
+
+    @classmethod
+    def from_toml(cls, path: str | Path) -> Sweep:
+        path = Path(path)
+        try:
+            data = tomllib.loads(path.read_text())
+        except FileNotFoundError:
+            raise UsageError(f"config file {path} does not exist") from None
+        except OSError as exc:
+            raise UsageError(f"cannot read config {path}: {exc.strerror or exc}") from None
+        except tomllib.TOMLDecodeError as exc:
+            raise UsageError(f"{path} is not valid TOML: {exc}") from None
+        return cls.from_dict(data, source=str(path))
+
+    def to_dict(self) -> dict[str, Any]:
+        """JSON/TOML-ready form, stored in the dataset manifest (and compared on --resume)."""
+        return {
+            "name": self.name,
+            "mode": self.mode,
+            "samples": self.samples,
+            "controller": asdict(self.controller),
+            "shapes": [_shape_dict(s) for s in self.shapes],
+        }
+
+    # --- expansion ----------------------------------------------------------------------
+
+    def tasks(self, seed: int = 0) -> list[GraspTask]:
+        """Every grasp of the sweep, in a fixed order, each with its own seed derived from
+        ``seed`` and its index (so any subset can be re-run and give the same records)."""
+        from .grasp import resolve_shape
+
+        rng = np.random.default_rng(np.random.SeedSequence([int(seed), 0]))
+        specs: list[tuple[str, dict[str, float], Pose]] = []
+        for sweep in self.shapes:
+            shape = resolve_shape(sweep.name)
+            dims: dict[str, Dimension] = {}
+            for key, spec in shape.params.items():
+                if key in sweep.params:
+                    dims[f"p:{key}"] = sweep.params[key]
+                elif self.mode == "grid":
+                    dims[f"p:{key}"] = (spec.default,)
+                else:
+                    dims[f"p:{key}"] = {"min": spec.min, "max": spec.max}
+            for key in ("offset_x", "offset_y", "offset_z", "rotation_deg"):
+                dims[key] = getattr(sweep, key)
+            if self.mode == "grid":
+                rows = _grid(dims)
+            else:
+                rows = _random(dims, sweep.samples or self.samples, rng)
+            for row in rows:
+                params = {k[2:]: v for k, v in row.items() if k.startswith("p:")}
+                if not geometry_ok(shape.name, params):
+                    continue
+                shape.resolve(params)  # out-of-range sizes are refused before any work
+                pose = Pose(
+                    (row["offset_x"], row["offset_y"], row["offset_z"]),
+                    math.radians(row["rotation_deg"]),
+                )
+                specs.append((sweep.name, params, pose))
+        seeds = np.random.SeedSequence(int(seed)).generate_state(len(specs), dtype=np.uint32)
+        return [
+            GraspTask(i, name, params, pose, self.controller, int(s))
+            for i, ((name, params, pose), s) in enumerate(zip(specs, seeds, strict=True))
+        ]
+
+
+def geometry_ok(shape: str, params: Mapping[str, float]) -> bool:
+    """False for size combinations that make no such solid (a torus whose tube closes its
+    hole, a hyperboloid whose ends are narrower than its waist): a grid over independent
+    ranges produces some, and they are left out of the sweep rather than failing it."""
+    from .shapes import check_consistent
+
+    try:
+        check_consistent(shape, params)
+    except UsageError:
+        return False
+    return True
+
+
+# --- presets --------------------------------------------------------------------------------
+
+
+def _linspace(lo: float, hi: float, n: int) -> tuple[float, ...]:
+    return tuple(round(float(v), 5) for v in np.linspace(lo, hi, n))
+
+
+def _thesis() -> Sweep:
+    """The thesis' data collection (Table 2.1 in spirit): the five shapes, sizes across their
+    valid ranges, the object moved +-10 mm along O-O' and along the fingers, and rotations
+    0-25 deg in 5 deg steps for the torus, hyperboloid and cylinder."""
+    from .shapes import BUILTIN_SHAPES
+
+    rotations = tuple(float(a) for a in range(0, 30, 5))
+    counts = {"sphere": {"radius": 7}, "cone": {"radius": 4, "length": 3}}
+    shapes = []
+    for shape in BUILTIN_SHAPES:
+        if not shape.thesis:
+            continue
+        # 3 values per size parameter across its valid range; lengths stay at their default
+        # except the cone's (its slope), and the sphere gets more radii (its only size).
+        params = {}
+        for key, spec in shape.params.items():
+            n = counts.get(shape.name, {}).get(key, 1 if key == "length" else 3)
+            params[key] = _linspace(spec.min, spec.max, n) if n > 1 else (spec.default,)
+        rotated = shape.name in ("torus", "hyperboloid", "cylinder")
+        shapes.append(
+            ShapeSweep(
+                shape.name,
+                params,
+                offset_x=(-0.01, 0.0, 0.01),
+                offset_z=(-0.01, 0.0, 0.01),
+                rotation_deg=rotations if rotated else (0.0,),
+            )
+        )
+    return Sweep("thesis", tuple(shapes))
+
+
+def _modified() -> Sweep:
+    """The modified shapes (ovoid, hexagonal pyramid) over their sizes and positions."""
+    from .shapes import BUILTIN_SHAPES
+
+    shapes = [
+        ShapeSweep(
+            s.name,
+            {k: _linspace(p.min, p.max, 3) for k, p in s.params.items() if p.unit == "m"},
+            offset_x=(-0.01, 0.0, 0.01),
+            offset_z=(-0.01, 0.0, 0.01),
+        )
+        for s in BUILTIN_SHAPES
+        if not s.thesis
+    ]
+    return Sweep("modified", tuple(shapes))
+
+
+def _smoke() -> Sweep:
+    """Four grasps: a quick end-to-end check of the whole pipeline."""
+    return Sweep(
+        "smoke",
+        (
+            ShapeSweep("cylinder", {"radius": (0.03, 0.045)}),
+            ShapeSweep("sphere", {"radius": (0.04, 0.05)}),
+        ),
+    )
+
+
+PRESETS = {"thesis": _thesis, "modified": _modified, "smoke": _smoke}
+
+
+def preset(name: str) -> Sweep:
+    try:
+        return PRESETS[name]()
+    except KeyError:
+        raise UsageError(f"unknown preset {name!r} (presets: {', '.join(PRESETS)})") from None
+
+
+# --- helpers --------------------------------------------------------------------------------
+
+
+def _no_unknown(data: Mapping, allowed: Sequence[str], where: str) -> None:
+    if not isinstance(data, Mapping):
+        raise UsageError(f"{where} must be a table")
+    unknown = sorted(set(data) - set(allowed))
+    if unknown:
+        raise UsageError(f"{where}: unknown key {unknown[0]!r} (keys: {', '.join(allowed)})")
+
+
+def _positive_int(value: Any, what: str) -> int:
+    if not isinstance(value, int) or isinstance(value, bool) or value < 1:
+        raise UsageError(f"{what} must be a positive integer, got {value!r}")
+    return value
+
+
+def _dimension(value: Any, mode: str, what: str) -> Dimension:
+    if isinstance(value, int | float) and not isinstance(value, bool):
+        value = [value]
+    if isinstance(value, list):
+        if not value or not all(
+            isinstance(v, int | float) and not isinstance(v, bool) and math.isfinite(v)
+            for v in value
+        ):
+            raise UsageError(f"{what} must be a non-empty list of numbers")
+        return tuple(float(v) for v in value)
+    if isinstance(value, Mapping):
+        _no_unknown(value, ("min", "max", "steps"), what)
+        try:
+            lo, hi = float(value["min"]), float(value["max"])
+        except (KeyError, TypeError, ValueError):
+            raise UsageError(f"{what} range needs numeric min and max") from None
+        if not (math.isfinite(lo) and math.isfinite(hi)) or lo > hi:
+            raise UsageError(f"{what} range needs min <= max, got {lo} > {hi}")
+        out = {"min": lo, "max": hi}
+        if mode == "grid":
+            out["steps"] = _positive_int(value.get("steps"), f"{what} steps (grid mode)")
+        return out
+    raise UsageError(f"{what} must be a list of numbers or a {{min, max}} table")
+
+
+def _shape_sweep(data: Any, mode: str, where: str) -> ShapeSweep:
+    _no_unknown(data, SHAPE_KEYS, where)
+    from .grasp import resolve_shape
+
+    if "name" not in data:
+        raise UsageError(f"{where}: needs a shape name")
+    shape = resolve_shape(str(data["name"]))
+    params_data = data.get("params", {})
+    _no_unknown(params_data, tuple(shape.params), f"{where} ({shape.name}) params")
+    params = {}
+    for key, value in params_data.items():
+        dim = _dimension(value, mode, f"{where} params.{key}")
+        spec = shape.params[key]
+        lo, hi = (min(dim), max(dim)) if isinstance(dim, tuple) else (dim["min"], dim["max"])
+        if lo < spec.min or hi > spec.max:
+            raise UsageError(
+                f"{where} params.{key} spans [{lo:g}, {hi:g}] {spec.unit}, outside the valid "
+                f"range [{spec.min:g}, {spec.max:g}] {spec.unit} of {shape.name}"
+            )
+        params[key] = dim
+    kwargs = {
+        key: _dimension(data[key], mode, f"{where} {key}")
+        for key in ("offset_x", "offset_y", "offset_z", "rotation_deg")
+        if key in data
+    }
+    samples = data.get("samples")
+    if samples is not None:
+        samples = _positive_int(samples, f"{where} samples")
+    return ShapeSweep(shape.name, params, samples=samples, **kwargs)
+
+
+def _shape_dict(s: ShapeSweep) -> dict[str, Any]:
+    def dim(d):
+        return list(d) if isinstance(d, tuple) else dict(d)
+
+    out = {"name": s.name, "params": {k: dim(v) for k, v in s.params.items()}}
+    for key in ("offset_x", "offset_y", "offset_z", "rotation_deg"):
+        out[key] = dim(getattr(s, key))
+    if s.samples is not None:
+        out["samples"] = s.samples
+    return out
+
+
+def _values(dim: Dimension) -> tuple[float, ...]:
+    if isinstance(dim, tuple):
+        return dim
+    return _linspace(dim["min"], dim["max"], int(dim["steps"]))
+
+
+def _grid(dims: Mapping[str, Dimension]) -> list[dict[str, float]]:
+    keys = list(dims)
+    axes = [_values(dims[k]) for k in keys]
+    mesh = np.meshgrid(*axes, indexing="ij")
+    flat = [m.ravel() for m in mesh]
+    return [{k: float(col[i]) for k, col in zip(keys, flat, strict=True)}
+            for i in range(flat[0].size)]  # fmt: skip
+
+
+def _random(dims: Mapping[str, Dimension], n: int, rng: np.random.Generator):
+    rows = []
+    for _ in range(n):
+        row = {}
+        for key, dim in dims.items():
+            if isinstance(dim, tuple):
+                row[key] = float(dim[int(rng.integers(len(dim)))])
+            else:
+                row[key] = float(rng.uniform(dim["min"], dim["max"]))
+        rows.append(row)
+    return rows

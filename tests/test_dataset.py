@@ -1,0 +1,165 @@
+"""The dataset on disk: round trip, resume after a kill, corrupted shards, refusals."""
+
+from __future__ import annotations
+
+import json
+import os
+import signal
+import subprocess
+import sys
+import time
+
+import numpy as np
+import pytest
+
+from tactile_bullet.dataset import generate, load_dataset
+from tactile_bullet.errors import UsageError
+from tactile_bullet.sweeps import Sweep
+
+SMALL = """
+name = "small"
+[[shapes]]
+name = "cylinder"
+params = { radius = [0.03, 0.04] }
+[[shapes]]
+name = "sphere"
+params = { radius = [0.04, 0.05] }
+"""
+
+
+def fake_grasp(task):
+    """A stand-in for the simulator: a deterministic record from the task alone."""
+    rng = np.random.default_rng(task.seed)
+    n = 24
+    meta = {
+        "format": 1, "shape": task.shape, "params": task.params,
+        "pose": {"offset": list(task.pose.offset), "rotation": task.pose.rotation},
+        "controller": {"mode": "torque"}, "seed": task.seed,
+        "fingers_in_contact": ["ff"], "flags": [], "steps": 10,
+        "joint_names": [f"J{i}" for i in range(n)],
+    }  # fmt: skip
+    arrays = {
+        "time": np.arange(5) / 60.0,
+        "angles": rng.normal(size=(5, n)),
+        "efforts": rng.normal(size=(5, n)),
+        "final_angles": rng.normal(size=n),
+        "contact_link": np.array(["ffdistal"], dtype="U16"),
+        "contact_position": rng.normal(size=(1, 3)),
+        "contact_normal": rng.normal(size=(1, 3)),
+        "contact_force": rng.random(1),
+    }
+    if task.index == 5:
+        return "UsageError: pose puts the sphere inside the open hand"
+    return meta, arrays
+
+
+def sweep(tmp_path, text=SMALL, name="sweep.toml"):
+    path = tmp_path / name
+    path.write_text(text)
+    return Sweep.from_toml(path)
+
+
+MANY = """
+name = "many"
+[[shapes]]
+name = "cylinder"
+params = { radius = [0.025, 0.03, 0.035, 0.04, 0.045] }
+offset_x = [-0.004, 0.0, 0.004]
+"""
+
+
+def test_round_trip_keeps_every_record_and_reports_failures(tmp_path):
+    out = tmp_path / "ds"
+    doc = generate(sweep(tmp_path, MANY), out, workers=0, shard_size=4, task_fn=fake_grasp)
+    assert doc["records"] == 14 and doc["failed"] == 1 and doc["shards"] == 4
+    data = load_dataset(out)
+    assert len(data) == 14
+    records = list(data)
+    expected = [fake_grasp(t) for t in sweep(tmp_path, MANY).tasks(0)]
+    expected = [e for e in expected if not isinstance(e, str)]
+    for rec, (meta, arrays) in zip(records, expected, strict=True):
+        assert rec.seed == meta["seed"]
+        assert np.array_equal(rec.angles, arrays["angles"])
+    manifest = json.loads((out / "manifest.json").read_text())
+    assert manifest["failed"] == [
+        {"task": 5, "error": "UsageError: pose puts the sphere inside the open hand"}
+    ]
+    assert {"tactile_bullet", "pybullet", "numpy"} <= set(manifest["software"])
+
+
+def test_lazy_records_skip_time_series_and_features_come_shard_by_shard(tmp_path):
+    out = tmp_path / "ds"
+    generate(sweep(tmp_path, MANY), out, workers=0, shard_size=4, task_fn=fake_grasp)
+    data = load_dataset(out)
+    light = list(data.records(full=False))
+    assert all(r.angles.shape[0] == 0 for r in light)
+    assert all(r.final_angles.shape == (24,) for r in light)
+
+    class Final:
+        def transform(self, records):
+            return np.array([r.final_angles for r in records])
+
+    assert data.features(Final()).shape == (14, 24)
+    assert list(data.labels()) == ["cylinder"] * 14
+
+
+def test_a_corrupted_shard_is_named_and_the_rest_still_loads(tmp_path, capsys):
+    out = tmp_path / "ds"
+    generate(sweep(tmp_path, MANY), out, workers=0, shard_size=4, task_fn=fake_grasp)
+    shard = out / "shard-00001.npz"
+    data = shard.read_bytes()
+    shard.write_bytes(data[:100] + bytes([data[100] ^ 0xFF]) + data[101:])
+    dataset = load_dataset(out)
+    records = list(dataset)
+    assert len(records) == 14 - 3  # shard 1 held tasks 4, 6, 7 (5 failed)
+    assert dataset.corrupted == ["shard-00001.npz"]
+    assert "shard-00001.npz: checksum mismatch" in capsys.readouterr().err
+
+
+def test_out_holding_a_different_dataset_is_refused_and_left_alone(tmp_path):
+    out = tmp_path / "ds"
+    generate(sweep(tmp_path), out, workers=0, shard_size=2, task_fn=fake_grasp)
+    before = {p.name: p.read_bytes() for p in out.iterdir()}
+    with pytest.raises(UsageError, match="different dataset"):
+        generate(sweep(tmp_path, MANY), out, workers=0, task_fn=fake_grasp, shard_size=2)
+    with pytest.raises(UsageError, match="already holds this dataset, complete; use --resume"):
+        generate(sweep(tmp_path), out, workers=0, shard_size=2, task_fn=fake_grasp)
+    assert {p.name: p.read_bytes() for p in out.iterdir()} == before
+
+
+def test_out_that_is_a_non_empty_folder_is_refused(tmp_path):
+    (tmp_path / "ds").mkdir()
+    (tmp_path / "ds" / "notes.txt").write_text("mine")
+    with pytest.raises(UsageError, match="not an empty directory"):
+        generate(sweep(tmp_path), tmp_path / "ds", workers=0, task_fn=fake_grasp)
+    assert (tmp_path / "ds" / "notes.txt").read_text() == "mine"
+
+
+def test_killed_run_resumes_to_the_same_records_as_an_uninterrupted_one(tmp_path):
+    """A real run (real simulator, worker processes) killed once its first shard is on disk,
+    then resumed, holds exactly the records of a run that was never interrupted."""
+    config = tmp_path / "small.toml"
+    config.write_text(SMALL)
+    killed = tmp_path / "killed"
+    cmd = [sys.executable, "-m", "tactile_bullet.cli", "generate", "--config", str(config),
+           "--out", str(killed), "--shard-size", "1", "--workers", "1"]  # fmt: skip
+    proc = subprocess.Popen(cmd, start_new_session=True, stdout=subprocess.DEVNULL,
+                            stderr=subprocess.DEVNULL)  # fmt: skip
+    deadline = time.time() + 120
+    while time.time() < deadline:
+        shards = list(killed.glob("shard-*.npz"))
+        if shards:
+            break
+        time.sleep(0.05)
+    os.killpg(proc.pid, signal.SIGKILL)
+    proc.wait()
+    partial = json.loads((killed / "manifest.json").read_text())
+    assert 1 <= len(partial["shards"]) < 4, "the kill should land mid-run"
+
+    doc = generate(Sweep.from_toml(config), killed, workers=0, shard_size=1, resume=True)
+    assert doc["records"] == 4 and doc["shards"] == 4
+    whole = tmp_path / "whole"
+    generate(Sweep.from_toml(config), whole, workers=0, shard_size=1)
+    a, b = list(load_dataset(killed)), list(load_dataset(whole))
+    assert len(a) == len(b) == 4
+    assert all(x.equals(y) for x, y in zip(a, b, strict=True))

@@ -1,0 +1,108 @@
+"""Generating datasets: worker crashes, Dask clusters, and the CLI's contract."""
+
+from __future__ import annotations
+
+import json
+import socket
+import subprocess
+import sys
+
+import pytest
+
+from tactile_bullet.dataset import generate, load_dataset
+from tactile_bullet.errors import UsageError
+from tactile_bullet.executors import CRASH_ENV
+from tactile_bullet.sweeps import Sweep
+
+SMALL = """
+name = "small"
+[[shapes]]
+name = "cylinder"
+params = { radius = [0.03, 0.04] }
+[[shapes]]
+name = "sphere"
+params = { radius = [0.04, 0.05] }
+"""
+
+
+@pytest.fixture
+def small(tmp_path):
+    path = tmp_path / "small.toml"
+    path.write_text(SMALL)
+    return path
+
+
+def cli(*args):
+    return subprocess.run(
+        [sys.executable, "-m", "tactile_bullet.cli", *args],
+        capture_output=True, text=True, timeout=300,
+    )  # fmt: skip
+
+
+def test_a_worker_killed_by_a_segfault_does_not_kill_the_run(small, tmp_path, monkeypatch):
+    monkeypatch.setenv(CRASH_ENV, "2")
+    doc = generate(Sweep.from_toml(small), tmp_path / "ds", workers=2, shard_size=2)
+    assert doc["records"] == 3 and doc["failed"] == 1
+    manifest = json.loads((tmp_path / "ds" / "manifest.json").read_text())
+    assert [f["task"] for f in manifest["failed"]] == [2]
+    assert "died" in manifest["failed"][0]["error"]
+    assert sorted(r.shape for r in load_dataset(tmp_path / "ds")) == ["cylinder"] * 2 + ["sphere"]
+
+
+def test_two_workers_give_the_same_records_as_one(small, tmp_path):
+    generate(Sweep.from_toml(small), tmp_path / "a", workers=0, shard_size=3)
+    generate(Sweep.from_toml(small), tmp_path / "b", workers=2, shard_size=3)
+    a, b = list(load_dataset(tmp_path / "a")), list(load_dataset(tmp_path / "b"))
+    assert len(a) == 4 and all(x.equals(y) for x, y in zip(a, b, strict=True))
+
+
+def test_a_dask_cluster_gives_the_same_records_as_a_local_run(small, tmp_path):
+    distributed = pytest.importorskip("distributed")
+    with distributed.LocalCluster(
+        n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None
+    ) as cluster:
+        doc = generate(Sweep.from_toml(small), tmp_path / "dask", cluster=cluster.scheduler_address)
+    assert doc["records"] == 4
+    generate(Sweep.from_toml(small), tmp_path / "local", workers=0)
+    a, b = list(load_dataset(tmp_path / "dask")), list(load_dataset(tmp_path / "local"))
+    assert all(x.equals(y) for x, y in zip(a, b, strict=True))
+
+
+def test_unreachable_cluster_is_a_clear_error(small, tmp_path):
+    pytest.importorskip("distributed")
+    with socket.socket() as s:  # a free loopback port nobody listens on
+        s.bind(("127.0.0.1", 0))
+        port = s.getsockname()[1]
+    with pytest.raises(UsageError, match="cannot reach the Dask scheduler"):
+        generate(Sweep.from_toml(small), tmp_path / "ds", cluster=f"tcp://127.0.0.1:{port}")
+
+
+def test_cli_json_contract(small, tmp_path):
+    result = cli("generate", "--config", str(small), "--out", str(tmp_path / "ds"), "--json")
+    assert result.returncode == 0, result.stderr
+    doc = json.loads(result.stdout)
+    assert set(doc) >= {"out", "records", "shards", "failed", "wall_time_s"}
+    assert doc["records"] == 4 and doc["failed"] == 0
+
+
+@pytest.mark.parametrize(
+    "args, message",
+    [
+        (["--preset", "everything"], "unknown preset"),
+        (["--config", "missing.toml"], "does not exist"),
+        (["--preset", "smoke", "--workers", "-1"], "--workers"),
+    ],
+)
+def test_cli_bad_input_exits_2_with_one_line(tmp_path, args, message):
+    result = cli("generate", *args, "--out", str(tmp_path / "ds"))
+    assert result.returncode == 2
+    lines = result.stderr.strip().splitlines()
+    assert len(lines) == 1 and message in lines[0], result.stderr
+
+
+def test_cli_malformed_toml_names_the_file(tmp_path):
+    bad = tmp_path / "bad.toml"
+    bad.write_text("[[shapes]\nname = 'sphere'\n")
+    result = cli("generate", "--config", str(bad), "--out", str(tmp_path / "ds"))
+    assert result.returncode == 2 and "bad.toml is not valid TOML" in result.stderr
+    assert not (tmp_path / "ds").exists()

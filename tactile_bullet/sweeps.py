@@ -251,7 +251,26 @@ def _smoke() -> Sweep:
     )
 
 
-PRESETS = {"thesis": _thesis, "modified": _modified, "smoke": _smoke}
+def _sequential() -> Sweep:
+    """Chapter 4's classes: the five thesis shapes plus the cylinder and the cone turned 90 deg
+    about the palm normal (axis along the fingers), 40 random sizes and positions each."""
+    from .shapes import THESIS_SHAPES
+
+    near = {"min": -0.005, "max": 0.005}
+    shapes = [ShapeSweep(name, offset_x=near, offset_z=near) for name in THESIS_SHAPES]
+    shapes += [
+        ShapeSweep(name, offset_x=near, offset_z=near, rotation_deg=(90.0,))
+        for name in ("cylinder", "cone")
+    ]
+    return Sweep("sequential", tuple(shapes), mode="random", samples=40)
+
+
+PRESETS = {
+    "thesis": _thesis,
+    "modified": _modified,
+    "sequential": _sequential,
+    "smoke": _smoke,
+}
 
 
 def preset(name: str) -> Sweep:

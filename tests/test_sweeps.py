@@ -72,7 +72,9 @@ def test_thesis_preset_covers_the_five_shapes_and_rotates_three():
 def test_presets_expand():
     assert {t.shape for t in preset("modified").tasks()} == {"ovoid", "hexagonal_pyramid"}
     assert 0 < len(preset("smoke").tasks()) <= 8
-    assert set(PRESETS) == {"thesis", "modified", "smoke"}
+    assert set(PRESETS) == {"thesis", "modified", "sequential", "smoke"}
+    rotated = {t.shape for t in preset("sequential").tasks() if t.pose.rotation > 1.5}
+    assert rotated == {"cylinder", "cone"}
 
 
 @pytest.mark.parametrize(
@@ -95,5 +97,5 @@ def test_bad_configs_are_refused_with_the_key_named(tmp_path, text, message):
 
 
 def test_unknown_preset_lists_the_presets():
-    with pytest.raises(UsageError, match="thesis, modified, smoke"):
+    with pytest.raises(UsageError, match="thesis, modified, sequential, smoke"):
         preset("everything")

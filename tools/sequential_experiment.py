@@ -47,7 +47,24 @@ def load_data(args: argparse.Namespace) -> tuple[np.ndarray, np.ndarray, list[st
             random_state=args.seed,
         )
         return X, y, [f"class{c}" for c in range(args.classes)]
-    raise SystemExit("grasp descriptors are not wired in yet: use --synthetic")
+    if args.data is None:
+        raise SystemExit("give --data DIR (e.g. from `tactile-bullet generate --preset "
+                         "sequential`) or --synthetic")  # fmt: skip
+    from tactile_bullet.dataset import load_dataset
+    from tactile_bullet.plugins import get_descriptor
+
+    records = list(load_dataset(args.data).records(full=False))
+    X = get_descriptor(args.descriptor).transform(records)
+    names = [class_name(r) for r in records]
+    classes = sorted(set(names))
+    return np.asarray(X, float), np.array([classes.index(n) for n in names]), classes
+
+
+def class_name(record) -> str:
+    """The shape, with '-rot90' for objects turned 90 deg about the palm normal (ch. 4's extra
+    classes: the same solid, another way of holding it)."""
+    turned = abs(abs(record.pose.rotation) - np.pi / 2) < 0.1
+    return f"{record.shape}-rot90" if turned else record.shape
 
 
 def model(args: argparse.Namespace, seed: int, **overrides: Any) -> NeuralForestClassifier:
@@ -233,6 +250,12 @@ def timing(X: np.ndarray, y: np.ndarray, names: list[str], args: argparse.Namesp
 def main(argv: list[str] | None = None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--synthetic", action="store_true", help="make_classification data")
+    parser.add_argument("--data", type=Path, help="a grasp dataset (generate --preset sequential)")
+    parser.add_argument(
+        "--descriptor", default="signature+contact-normals",
+        help="descriptor for --data: unimodal (signature, raw-joints, contact-normals) or "
+        "multimodal (a+b)",
+    )  # fmt: skip
     parser.add_argument("--timing", action="store_true", help="print cost figures only")
     parser.add_argument("--classes", type=int, default=7)
     parser.add_argument("--per-class", type=int, default=300)

@@ -1,0 +1,101 @@
+"""Benchmark dataset generation and loading.
+
+Prints:
+- grasps/s with 1 and with 2 worker processes, and the speed-up;
+- the storage layer's overhead: generate() with 1 worker against the same tasks simulated
+  bare in one process (no workers, no shards), as a ratio;
+- bytes per grasp on disk;
+- peak memory while loading the features of a 100k-grasp dataset (written with the real shard
+  writer by replicating simulated records, since simulating 100k takes a day on 2 cores).
+
+    python tools/bench_generate.py [--grasps 16] [--big 100000]
+"""
+
+from __future__ import annotations
+
+import argparse
+import resource
+import shutil
+import tempfile
+import time
+from pathlib import Path
+
+from tactile_bullet.dataset import _fsync_write, encode_shard, generate, load_dataset
+from tactile_bullet.executors import run_task
+from tactile_bullet.sweeps import ShapeSweep, Sweep
+
+
+def sweep(n: int) -> Sweep:
+    radii = tuple(round(0.025 + 0.025 * i / max(1, n // 2 - 1), 4) for i in range(n // 2))
+    return Sweep(
+        "bench",
+        (ShapeSweep("cylinder", {"radius": radii}), ShapeSweep("sphere", {"radius": (0.045,)},
+         offset_x=tuple(round(-0.01 + 0.02 * i / max(1, n // 2 - 1), 4) for i in range(n // 2)))),
+    )  # fmt: skip
+
+
+def peak_mib() -> float:
+    return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--grasps", type=int, default=16)
+    parser.add_argument("--big", type=int, default=100_000)
+    args = parser.parse_args()
+    work = Path(tempfile.mkdtemp(prefix="tb-bench-"))
+    try:
+        s = sweep(args.grasps)
+        tasks = s.tasks(0)
+        start = time.perf_counter()
+        for task in tasks:
+            run_task(task)
+        bare = time.perf_counter() - start
+        rates = {}
+        for workers in (1, 2):
+            out = work / f"w{workers}"
+            doc = generate(s, out, workers=workers, shard_size=8)
+            rates[workers] = doc["records"] / doc["wall_time_s"]
+        size = sum(p.stat().st_size for p in (work / "w1").iterdir())
+        print(f"{len(tasks)} grasps (cylinder + sphere)")
+        print(f"bare simulation, 1 process:  {len(tasks) / bare:.2f} grasps/s")
+        print(f"generate, 1 worker:          {rates[1]:.2f} grasps/s")
+        print(f"generate, 2 workers:         {rates[2]:.2f} grasps/s")
+        print(f"speed-up 2 vs 1 worker:      {rates[2] / rates[1]:.2f}x")
+        print(f"storage + worker overhead:   {(len(tasks) / bare) / rates[1] - 1:+.1%} "
+              "(1 worker vs bare)")  # fmt: skip
+        print(f"bytes per grasp on disk:     {size / len(tasks):.0f}")
+
+        # 100k-grasp dataset: real shards, records replicated from the simulated ones.
+        parts = [p for p in (run_task(t) for t in tasks[:8]) if not isinstance(p, str)]
+        shard = encode_shard(parts * 125)  # 1000 records per shard
+        big = work / "big"
+        big.mkdir()
+        import hashlib
+        import json
+
+        n_shards = args.big // 1000
+        for i in range(n_shards):
+            _fsync_write(big / f"shard-{i:05d}.npz", shard)
+        digest = hashlib.sha256(shard).hexdigest()
+        manifest = {
+            "format": 1, "config": {}, "tasks": args.big, "software": {}, "failed": [],
+            "shards": [{"block": i, "file": f"shard-{i:05d}.npz", "records": 1000, "failed": 0,
+                        "tasks": [], "sha256": digest} for i in range(n_shards)],
+        }  # fmt: skip
+        (big / "manifest.json").write_text(json.dumps(manifest))
+        from tactile_bullet.plugins import get_descriptor
+
+        before = peak_mib()
+        start = time.perf_counter()
+        features = load_dataset(big).features(get_descriptor("raw-joints"))
+        took = time.perf_counter() - start
+        print(f"{features.shape[0]} grasps' raw-joints features loaded in {took:.1f} s; "
+              f"peak memory {peak_mib():.0f} MiB (was {before:.0f} MiB before loading; "
+              f"the feature matrix itself is {features.nbytes / 2**20:.0f} MiB)")  # fmt: skip
+    finally:
+        shutil.rmtree(work, ignore_errors=True)
+
+
+if __name__ == "__main__":
+    main()

@@ -8,6 +8,7 @@ looked up by name in the plugin registry, so a third-party plugin joins every st
 from __future__ import annotations
 
 import os
+import re
 import time
 from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import dataclass
@@ -357,6 +358,10 @@ def simulate_many(
     return records, failures
 
 
+_OWN_RECORD = re.compile(r"rec\d{5}\.npz(\.tmp)?")
+"""Files :func:`save_records` writes (the .tmp of one interrupted mid-write included)."""
+
+
 def save_records(records: Sequence[GraspRecord], folder: str | os.PathLike) -> Path:
     """Write records as ``folder/rec00000.npz``... (each file atomic), a folder that
     :func:`records_from` reads back; records left from an earlier, larger run are removed."""
@@ -370,10 +375,24 @@ def save_records(records: Sequence[GraspRecord], folder: str | os.PathLike) -> P
     names = set()
     for i, rec in enumerate(records):
         names.add(save_record(rec, folder / f"rec{i:05d}.npz").name)
-    for stale in folder.glob("rec*.npz"):
-        if stale.name not in names:
+    for stale in folder.glob("rec*.npz*"):
+        if stale.name not in names and _OWN_RECORD.fullmatch(stale.name):
             stale.unlink()
     return folder
+
+
+def _check_record_folder(folder: Path) -> None:
+    """Refuse, before any work, to write records into a folder holding anything else: the
+    demo replaces its own ``rec*.npz`` files and must never touch a user's."""
+    if folder.exists() and not folder.is_dir():
+        raise UsageError(f"{folder} exists and is not a directory")
+    if folder.is_dir():
+        others = [p.name for p in folder.iterdir() if not _OWN_RECORD.fullmatch(p.name)]
+        if others:
+            raise UsageError(
+                f"{folder} holds files the demo did not write ({others[0]}...): "
+                "choose another --out"
+            )
 
 
 # --- demo ---------------------------------------------------------------------------------------
@@ -498,6 +517,8 @@ def demo(
     if train_per_shape < 2 or test_per_shape < 1:
         raise UsageError("the demo needs at least 2 training and 1 test grasp per shape")
     out = report_dir(out)
+    for name in ("train", "test"):
+        _check_record_folder(out / name)
     report = report_dir(out / "report")
     started = time.perf_counter()
     rng = np.random.default_rng(seed)

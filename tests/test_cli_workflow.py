@@ -253,3 +253,12 @@ def test_commands_read_a_dataset_folder(capsys, tmp_path):
     assert doc["train_records"] == 15
     doc = run_json(capsys, ["evaluate", "--model", model, "--data", str(tmp_path / "ds")])
     assert doc["records"] == 15 and sorted(doc["classes"]) == sorted(SHAPES)
+
+
+def test_demo_never_writes_into_a_folder_of_someone_elses_files(capsys, tmp_path):
+    mine = tmp_path / "out" / "train"
+    mine.mkdir(parents=True)
+    (mine / "notes.txt").write_text("mine")
+    err = run_error(capsys, ["demo", "--quick", "--out", str(tmp_path / "out")])
+    assert "choose another --out" in err
+    assert (mine / "notes.txt").read_text() == "mine"

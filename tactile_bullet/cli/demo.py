@@ -20,7 +20,10 @@ def add_parser(sub) -> None:
         "(test sizes and offsets never seen in training), train signature + SVM, compare the "
         "other quick classifiers, print the confusion matrix and write a report folder.",
     )
-    parser.add_argument("--out", default="tactile-bullet-demo", metavar="DIR", help="output folder")
+    parser.add_argument(
+        "--out", default="tactile-bullet-demo", metavar="DIR",
+        help="output folder (default: ./tactile-bullet-demo)",
+    )  # fmt: skip
     parser.add_argument("--seed", type=int, default=0, help="seed of sizes and offsets")
     parser.add_argument(
         "--workers", type=int, default=min(2, os.cpu_count() or 1), help="simulation processes"

@@ -1,10 +1,11 @@
-"""Evaluation reports: scores, accuracy by object size and position, text and figures.
+"""Evaluation reports: scores, accuracy by object size, position and rotation, text, figures.
 
-Scores are computed from true and predicted shape names plus the records' own metadata (sizes
-and pose), so a report can say *where* recognition breaks (thesis Tables 2.1-2.2: the ranges of
-size and position where the method holds), not just how often. Figures use matplotlib's Agg
-backend, imported only when a figure is written, and every file is written atomically
-(temporary file, then rename) so an interrupted report never leaves a half-written PNG or JSON.
+Scores are computed from true and predicted shape names plus the records' own metadata (sizes,
+offset and rotation), so a report can say *where* recognition breaks (thesis Tables 2.1-2.2:
+the ranges of size and position where the method holds), not just how often. Figures use
+matplotlib's Agg backend, imported only when a figure is written, and every file is written
+atomically (temporary file, then rename) so an interrupted report never leaves a half-written
+PNG or JSON.
 """
 
 from __future__ import annotations
@@ -26,10 +27,14 @@ SIZE_BINS: tuple[str, ...] = ("small", "medium", "large")
 POSITION_EDGES_MM: tuple[float, ...] = (5.0, 10.0, 20.0)
 """Upper edges (mm) of the offset-distance bins; a last bin holds everything beyond."""
 
+ROTATION_EDGES_DEG: tuple[float, ...] = (2.5, 12.5, 22.5)
+"""Upper edges (deg) of the rotation bins: around the thesis' 0, 5-10, 15-20, 25 deg steps."""
+
 BIN_DOC = {
     "size": "mean relative position of the shape's size parameters in their valid ranges "
     "(small < 1/3 <= medium < 2/3 <= large)",
     "position": "distance of the object's offset from the grasp centre (mm)",
+    "rotation": "object rotation about the palm normal, absolute value (deg)",
 }
 
 
@@ -109,25 +114,39 @@ def size_bin(fraction: float) -> str:
     return SIZE_BINS[min(int(fraction * len(SIZE_BINS)), len(SIZE_BINS) - 1)]
 
 
+def _edge_bin(value: float, edges: Sequence[float], unit: str) -> str:
+    low = 0.0
+    for edge in edges:
+        if value < edge:
+            return f"{low:g}-{edge:g} {unit}"
+        low = edge
+    return f">={low:g} {unit}"
+
+
+def _edge_labels(edges: Sequence[float], unit: str) -> list[str]:
+    bounds = [0.0, *edges]
+    return [f"{a:g}-{b:g} {unit}" for a, b in zip(bounds, edges, strict=False)] + [
+        f">={edges[-1]:g} {unit}"
+    ]
+
+
 def position_bin(offset: Sequence[float]) -> str:
     """Bin label of an offset (m) by its distance from the grasp centre."""
     mm = 1000.0 * float(np.linalg.norm(np.asarray(offset, dtype=float)))
-    low = 0.0
-    for edge in POSITION_EDGES_MM:
-        if mm < edge:
-            return f"{low:g}-{edge:g} mm"
-        low = edge
-    return f">={low:g} mm"
+    return _edge_bin(mm, POSITION_EDGES_MM, "mm")
+
+
+def rotation_bin(rotation: float) -> str:
+    """Bin label of a rotation (rad) by its absolute value in degrees."""
+    return _edge_bin(abs(math.degrees(float(rotation))), ROTATION_EDGES_DEG, "deg")
 
 
 def _bin_order(kind: str) -> list[str]:
     if kind == "size":
         return [*SIZE_BINS, "unknown"]
-    labels, low = [], 0.0
-    for edge in POSITION_EDGES_MM:
-        labels.append(f"{low:g}-{edge:g} mm")
-        low = edge
-    return [*labels, f">={low:g} mm"]
+    if kind == "rotation":
+        return _edge_labels(ROTATION_EDGES_DEG, "deg")
+    return _edge_labels(POSITION_EDGES_MM, "mm")
 
 
 def accuracy_by(bins: Sequence[str], correct: Sequence[bool], kind: str) -> dict[str, dict]:
@@ -173,6 +192,8 @@ def evaluation_report(
         positions = [position_bin(r.pose.offset) for r in records]
         doc["by_size"] = accuracy_by(sizes, correct, "size")
         doc["by_position"] = accuracy_by(positions, correct, "position")
+        rotations = [rotation_bin(r.pose.rotation) for r in records]
+        doc["by_rotation"] = accuracy_by(rotations, correct, "rotation")
         doc["bins"] = dict(BIN_DOC)
     return doc
 
@@ -204,7 +225,7 @@ def summary_text(report: Mapping[str, Any]) -> str:
     if report.get("unknown_classes"):
         unknown = ", ".join(report["unknown_classes"])
         lines.append(f"shapes the model was not trained on (always counted wrong): {unknown}")
-    for kind in ("by_size", "by_position"):
+    for kind in ("by_size", "by_position", "by_rotation"):
         bins = report.get(kind)
         if bins:
             parts = [f"{k} {100 * v['accuracy']:.0f}% (n={v['support']})" for k, v in bins.items()]
@@ -338,6 +359,10 @@ def write_evaluation_report(report: Mapping[str, Any], out: str | os.PathLike) -
     if report.get("by_position"):
         written.append(
             plot_bins(report["by_position"], out / "accuracy_by_position.png", "offset from centre")
+        )
+    if len(report.get("by_rotation", {})) > 1:
+        written.append(
+            plot_bins(report["by_rotation"], out / "accuracy_by_rotation.png", "object rotation")
         )
     return written
 

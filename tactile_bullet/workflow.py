@@ -556,6 +556,7 @@ def demo(
         "per_class": result["per_class"],
         "by_size": result.get("by_size", {}),
         "by_position": result.get("by_position", {}),
+        "by_rotation": result.get("by_rotation", {}),
         "train_records": len(train_records),
         "test_records": len(test_records),
         "refused_poses": len(train_set.refused) + len(test_set.refused),

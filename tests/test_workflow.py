@@ -104,6 +104,7 @@ def test_evaluate_document_keeps_the_contract(model, data):
     assert doc["accuracy"] == pytest.approx(np.trace(cm) / cm.sum())
     assert sum(b["support"] for b in doc["by_size"].values()) == len(data[1])
     assert sum(b["support"] for b in doc["by_position"].values()) == len(data[1])
+    assert doc["by_rotation"] == {"0-2.5 deg": {"accuracy": doc["accuracy"], "support": 18}}
 
 
 def test_a_shape_the_model_never_saw_counts_as_an_error(model):
@@ -205,6 +206,12 @@ def test_position_bins_follow_offset_distance():
     assert reports.position_bin((0.0, 0.0, 0.0)) == "0-5 mm"
     assert reports.position_bin((0.003, 0.0, -0.004)) == "5-10 mm"
     assert reports.position_bin((0.0, 0.0, 0.05)) == ">=20 mm"
+
+
+def test_rotation_bins_follow_the_thesis_steps_either_way():
+    assert reports.rotation_bin(np.radians(5.0)) == reports.rotation_bin(np.radians(-10.0))
+    assert reports.rotation_bin(np.radians(15.0)) == "12.5-22.5 deg"
+    assert reports.rotation_bin(np.radians(25.0)) == ">=22.5 deg"
 
 
 def test_report_folder_holds_json_and_figures(model, data, tmp_path):

@@ -152,13 +152,11 @@ class Sweep:
             for key in ("offset_x", "offset_y", "offset_z", "rotation_deg"):
                 dims[key] = getattr(sweep, key)
             if self.mode == "grid":
-                rows = _grid(dims)
+                rows = [r for r in _grid(dims) if geometry_ok(shape.name, _sizes(r))]
             else:
-                rows = _random(dims, sweep.samples or self.samples, rng)
+                rows = _random(dims, sweep.samples or self.samples, rng, shape.name)
             for row in rows:
-                params = {k[2:]: v for k, v in row.items() if k.startswith("p:")}
-                if not geometry_ok(shape.name, params):
-                    continue
+                params = _sizes(row)
                 shape.resolve(params)  # out-of-range sizes are refused before any work
                 pose = Pose(
                     (row["offset_x"], row["offset_y"], row["offset_z"]),
@@ -380,14 +378,24 @@ def _grid(dims: Mapping[str, Dimension]) -> list[dict[str, float]]:
             for i in range(flat[0].size)]  # fmt: skip
 
 
-def _random(dims: Mapping[str, Dimension], n: int, rng: np.random.Generator):
+def _sizes(row: Mapping[str, float]) -> dict[str, float]:
+    return {k[2:]: v for k, v in row.items() if k.startswith("p:")}
+
+
+def _random(dims: Mapping[str, Dimension], n: int, rng: np.random.Generator, shape: str):
+    """``n`` draws; a draw that makes no such solid is drawn again (up to 1000 tries)."""
     rows = []
     for _ in range(n):
-        row = {}
-        for key, dim in dims.items():
-            if isinstance(dim, tuple):
-                row[key] = float(dim[int(rng.integers(len(dim)))])
-            else:
-                row[key] = float(rng.uniform(dim["min"], dim["max"]))
-        rows.append(row)
+        for _attempt in range(1000):
+            row = {}
+            for key, dim in dims.items():
+                if isinstance(dim, tuple):
+                    row[key] = float(dim[int(rng.integers(len(dim)))])
+                else:
+                    row[key] = float(rng.uniform(dim["min"], dim["max"]))
+            if geometry_ok(shape, _sizes(row)):
+                rows.append(row)
+                break
+        else:
+            raise UsageError(f"{shape}: the size ranges given make no valid solid")
     return rows

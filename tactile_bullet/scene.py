@@ -59,26 +59,31 @@ four fingers settle on a cylinder with forces of ~20 N and no oscillation."""
 
 
 @contextlib.contextmanager
-def quiet_stdout() -> Iterator[None]:
-    """Silence C-level writes to stdout (PyBullet prints its build time on import and every
-    merged link while loading), so ``--json`` output stays one clean document."""
+def quiet_stdout(streams: tuple[str, ...] = ("stdout",)) -> Iterator[None]:
+    """Silence C-level writes to the given standard streams: PyBullet prints its build time on
+    stderr when imported and every merged link on stdout while loading, and ``--json`` output
+    must stay one clean document (a person's terminal, one clean line)."""
+    saved: list[tuple[int, int]] = []
     try:
-        fd = sys.stdout.fileno()
-    except (AttributeError, OSError, ValueError):  # pytest capture, notebooks
-        yield
-        return
-    sys.stdout.flush()
-    saved = os.dup(fd)
-    try:
+        for name in streams:
+            stream = getattr(sys, name)
+            try:
+                fd = stream.fileno()
+            except (AttributeError, OSError, ValueError):  # pytest capture, notebooks
+                continue
+            stream.flush()
+            saved.append((fd, os.dup(fd)))
         with open(os.devnull, "wb") as null:
-            os.dup2(null.fileno(), fd)
+            for fd, _ in saved:
+                os.dup2(null.fileno(), fd)
             try:
                 yield
             finally:
                 _flush_c_stdout()  # C's buffered printf output goes to /dev/null, not later
     finally:
-        os.dup2(saved, fd)
-        os.close(saved)
+        for fd, copy in saved:
+            os.dup2(copy, fd)
+            os.close(copy)
 
 
 def _flush_c_stdout() -> None:
@@ -91,8 +96,8 @@ def _flush_c_stdout() -> None:
 
 
 def import_pybullet():
-    """pybullet, imported without its banner on stdout."""
-    with quiet_stdout():
+    """pybullet, imported without its build-time banner."""
+    with quiet_stdout(("stdout", "stderr")):
         import pybullet
         import pybullet_utils.bullet_client  # noqa: F401
 

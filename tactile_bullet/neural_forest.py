@@ -28,6 +28,7 @@ from contextlib import contextmanager
 from typing import Any
 
 import numpy as np
+from scipy.special import expit
 from sklearn.base import BaseEstimator, ClassifierMixin
 from sklearn.utils import check_random_state
 from sklearn.utils.multiclass import check_classification_targets
@@ -72,7 +73,7 @@ def _threads_for(torch: Any, work: int, device: Any) -> Iterator[None]:
 def _routing_numpy(xs: np.ndarray, idx: np.ndarray, w: np.ndarray, b: np.ndarray) -> np.ndarray:
     """Leaf-reaching probabilities (rows, trees, leaves) for flattened trees, in numpy."""
     z = np.matmul(xs[:, idx].transpose(1, 0, 2), w).transpose(1, 0, 2) + b
-    d = 1.0 / (1.0 + np.exp(-z))
+    d = expit(z)  # overflow-free logistic: large |z| from unseen inputs is common
     mu = np.ones((xs.shape[0], idx.shape[0], 1))
     level_start = 0
     while mu.shape[-1] < d.shape[-1] + 1:

@@ -32,6 +32,7 @@ import numpy as np
 
 from . import __version__
 from .errors import UsageError
+from .files import write_bytes_atomic
 from .records import GraspRecord, record_from_parts
 from .sweeps import GraspTask, Sweep
 
@@ -46,21 +47,8 @@ SERIES = ("time", "angles", "efforts")
 
 
 def _fsync_write(path: Path, data: bytes) -> None:
-    """Write ``data`` to ``path`` atomically: a reader sees the old file or the new one."""
-    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
-    with open(tmp, "wb") as fh:
-        fh.write(data)
-        fh.flush()
-        os.fsync(fh.fileno())
-    os.replace(tmp, path)
-    try:  # make the rename itself durable
-        fd = os.open(path.parent, os.O_RDONLY)
-        try:
-            os.fsync(fd)
-        finally:
-            os.close(fd)
-    except OSError:
-        pass
+    """Durable atomic write: a reader sees the old file or the new one, even after a crash."""
+    write_bytes_atomic(path, data, "dataset file", durable=True)
 
 
 def encode_shard(parts: Sequence[tuple[Mapping, Mapping[str, np.ndarray]]]) -> bytes:

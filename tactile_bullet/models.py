@@ -33,6 +33,7 @@ import numpy as np
 
 from . import __version__
 from .errors import UsageError
+from .files import atomic_path, json_value
 
 MODEL_FORMAT = "tactile-bullet-model"
 MODEL_FORMAT_VERSION = 1
@@ -129,16 +130,6 @@ def fit_model(
     )
 
 
-def _json_value(value: Any) -> Any:
-    if isinstance(value, np.generic):
-        return value.item()
-    if isinstance(value, np.ndarray):
-        return value.tolist()
-    if isinstance(value, tuple):
-        return list(value)
-    raise TypeError(f"{type(value).__name__} is not JSON serialisable")
-
-
 def _qualname(kind: type) -> str:
     return f"{kind.__module__}.{kind.__qualname__}"
 
@@ -163,7 +154,7 @@ def save_model(path: str | Path, model: Model) -> Path:
     if isinstance(est, StatefulEstimator):
         state, state_arrays = est.to_state()
         meta["estimator_encoding"] = "state"
-        arrays["estimator_state"] = np.array(json.dumps(state, default=_json_value))
+        arrays["estimator_state"] = np.array(json.dumps(state, default=json_value))
         for name, value in state_arrays.items():
             arr = np.asarray(value)
             if arr.dtype.kind not in "biufcU":
@@ -177,17 +168,11 @@ def save_model(path: str | Path, model: Model) -> Path:
         meta["estimator_encoding"] = "skops"
         arrays["estimator_skops"] = np.frombuffer(sio.dumps(est), dtype=np.uint8)
     try:
-        meta_text = json.dumps(meta, default=_json_value)
+        meta_text = json.dumps(meta, default=json_value)
     except TypeError as exc:
         raise UsageError(f"model parameters must be plain values: {exc}") from None
-    tmp = path.with_name(path.name + ".tmp")
-    try:
-        with open(tmp, "wb") as fh:
-            np.savez_compressed(fh, meta=np.array(meta_text), **arrays)
-        tmp.replace(path)
-    except OSError as exc:
-        tmp.unlink(missing_ok=True)
-        raise UsageError(f"cannot write model to {path}: {exc.strerror or exc}") from None
+    with atomic_path(path, "model") as tmp, open(tmp, "wb") as fh:
+        np.savez_compressed(fh, meta=np.array(meta_text), **arrays)
     return path
 
 

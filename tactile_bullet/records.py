@@ -207,15 +207,11 @@ def record_from_parts(meta: Mapping, arrays: Mapping[str, np.ndarray]) -> GraspR
 
 def save_record(record: GraspRecord, path: str | Path) -> Path:
     """Write a record as ``.npz`` atomically (temporary file then rename)."""
+    from .files import atomic_path
+
     path = Path(path)
-    tmp = path.with_name(path.name + ".tmp")
-    try:
-        with open(tmp, "wb") as fh:
-            np.savez_compressed(fh, meta=np.array(json.dumps(record.metadata())), **record.arrays())
-        tmp.replace(path)
-    except OSError as exc:
-        tmp.unlink(missing_ok=True)
-        raise UsageError(f"cannot write record to {path}: {exc.strerror or exc}") from None
+    with atomic_path(path, "record") as tmp, open(tmp, "wb") as fh:
+        np.savez_compressed(fh, meta=np.array(json.dumps(record.metadata())), **record.arrays())
     return path
 
 

@@ -20,6 +20,7 @@ from typing import Any
 import numpy as np
 
 from .errors import UsageError
+from .files import atomic_path, json_value, write_bytes_atomic
 
 SIZE_BINS: tuple[str, ...] = ("small", "medium", "large")
 """Thirds of the valid size range (see :func:`size_fraction`)."""
@@ -251,29 +252,11 @@ def report_dir(path: str | os.PathLike) -> Path:
 
 
 def write_text_atomic(path: str | os.PathLike, text: str) -> Path:
-    path = Path(path)
-    tmp = path.with_name(f".{path.name}.tmp")
-    try:
-        tmp.write_text(text)
-        tmp.replace(path)
-    except OSError as exc:
-        tmp.unlink(missing_ok=True)
-        raise UsageError(f"cannot write {path}: {exc.strerror or exc}") from None
-    return path
+    return write_bytes_atomic(path, text.encode(), "report file")
 
 
 def write_json(path: str | os.PathLike, doc: Any) -> Path:
-    return write_text_atomic(path, json.dumps(doc, indent=2, default=_plain) + "\n")
-
-
-def _plain(value: Any) -> Any:
-    if isinstance(value, np.generic):
-        return value.item()
-    if isinstance(value, np.ndarray):
-        return value.tolist()
-    if isinstance(value, Path):
-        return str(value)
-    raise TypeError(f"not JSON serialisable: {type(value).__name__}")
+    return write_text_atomic(path, json.dumps(doc, indent=2, default=json_value) + "\n")
 
 
 def _pyplot():
@@ -287,13 +270,9 @@ def _pyplot():
 
 def _save(fig, path: Path) -> Path:
     plt = _pyplot()
-    tmp = path.with_name(f".{path.stem}.tmp{path.suffix}")
     try:
-        fig.savefig(tmp, dpi=120, bbox_inches="tight")
-        tmp.replace(path)
-    except OSError as exc:
-        tmp.unlink(missing_ok=True)
-        raise UsageError(f"cannot write figure {path}: {exc.strerror or exc}") from None
+        with atomic_path(path, "figure") as tmp:
+            fig.savefig(tmp, dpi=120, bbox_inches="tight")
     finally:
         plt.close(fig)
     return path

@@ -16,20 +16,10 @@ from ..errors import UsageError
 
 def emit_json(doc: Any) -> None:
     """Print one JSON document on stdout (the ``--json`` contract)."""
-    json.dump(doc, sys.stdout, indent=2, default=_jsonable)
+    from ..files import json_value
+
+    json.dump(doc, sys.stdout, indent=2, default=json_value)
     sys.stdout.write("\n")
-
-
-def _jsonable(value: Any) -> Any:
-    import numpy as np
-
-    if isinstance(value, np.generic):
-        return value.item()
-    if isinstance(value, np.ndarray):
-        return value.tolist()
-    if isinstance(value, Path):
-        return str(value)
-    raise TypeError(f"not JSON serialisable: {type(value).__name__}")
 
 
 def parse_number(text: str, what: str) -> float:

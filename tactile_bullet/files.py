@@ -1,0 +1,78 @@
+"""Writing files so that nothing is ever half-written, and numpy values as plain JSON.
+
+Every output of the project (records, models, reports, figures, dataset shards and
+manifests) goes through :func:`atomic_path`: the data is written to a temporary file next to
+the target and renamed over it only once complete, so a crash or a full disk leaves the old
+file (or none), never a truncated one.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import os
+from collections.abc import Iterator
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from .errors import UsageError
+
+
+@contextlib.contextmanager
+def atomic_path(
+    path: str | os.PathLike, what: str = "file", durable: bool = False
+) -> Iterator[Path]:
+    """A temporary path to write; renamed over ``path`` when the block ends without error.
+
+    The temporary name keeps the suffix (matplotlib picks the format from it) and carries the
+    process id (parallel writers never share one). ``durable`` also fsyncs the file and its
+    folder, for data that must survive a power cut (dataset shards and manifests). An OSError
+    becomes a UsageError naming ``what`` and the path.
+    """
+    path = Path(path)
+    tmp = path.with_name(f".{path.stem}.{os.getpid()}.tmp{path.suffix}")
+    try:
+        yield tmp
+        if durable:
+            with open(tmp, "rb+") as fh:
+                os.fsync(fh.fileno())
+        os.replace(tmp, path)
+        if durable:
+            _fsync_dir(path.parent)
+    except OSError as exc:
+        raise UsageError(f"cannot write {what} {path}: {exc.strerror or exc}") from None
+    finally:
+        tmp.unlink(missing_ok=True)
+
+
+def write_bytes_atomic(
+    path: str | os.PathLike, data: bytes, what: str = "file", durable: bool = False
+) -> Path:
+    with atomic_path(path, what, durable) as tmp:
+        tmp.write_bytes(data)
+    return Path(path)
+
+
+def _fsync_dir(folder: Path) -> None:
+    try:
+        fd = os.open(folder, os.O_RDONLY)
+    except OSError:
+        return
+    try:
+        os.fsync(fd)
+    except OSError:
+        pass
+    finally:
+        os.close(fd)
+
+
+def json_value(value: Any) -> Any:
+    """``json.dumps(default=...)`` for numpy scalars and arrays, tuples and paths."""
+    if isinstance(value, np.generic):
+        return value.item()
+    if isinstance(value, np.ndarray | tuple):
+        return np.asarray(value).tolist() if isinstance(value, np.ndarray) else list(value)
+    if isinstance(value, Path):
+        return str(value)
+    raise TypeError(f"{type(value).__name__} is not JSON serialisable")

@@ -45,8 +45,14 @@ def run_task(task: GraspTask) -> Outcome:
 
 
 def _context():
-    methods = multiprocessing.get_all_start_methods()
-    return multiprocessing.get_context("forkserver" if "forkserver" in methods else "spawn")
+    """forkserver where there is one: workers fork from a server that has already imported
+    the simulator (trimesh and pybullet take ~1 s to import), without inheriting this
+    process's state; spawn elsewhere."""
+    if "forkserver" not in multiprocessing.get_all_start_methods():
+        return multiprocessing.get_context("spawn")
+    context = multiprocessing.get_context("forkserver")
+    context.set_forkserver_preload(["tactile_bullet.grasp", "tactile_bullet.executors"])
+    return context
 
 
 def _our_environment() -> dict[str, str | None]:

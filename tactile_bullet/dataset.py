@@ -69,9 +69,10 @@ def encode_shard(parts: Sequence[tuple[Mapping, Mapping[str, np.ndarray]]]) -> b
     return buf.getvalue()
 
 
-def decode_shard(path: Path, full: bool = True) -> list[GraspRecord]:
-    """The records of one shard file (time series left empty unless ``full``)."""
-    with np.load(path, allow_pickle=False) as data:
+def decode_shard(source: Path | bytes, full: bool = True) -> list[GraspRecord]:
+    """The records of one shard (a file, or its bytes); time series left empty unless
+    ``full``."""
+    with np.load(_source(source), allow_pickle=False) as data:
         metas = json.loads(str(data["meta"]))
         keys = [k for k in data.files if k != "meta" and not k.endswith("__offsets")]
         if not full:
@@ -85,6 +86,18 @@ def decode_shard(path: Path, full: bool = True) -> list[GraspRecord]:
             arrays.update(time=np.zeros(0), angles=np.zeros((0, n)), efforts=np.zeros((0, n)))
         records.append(record_from_parts(meta, arrays))
     return records
+
+
+def decode_shard_metadata(source: Path | bytes) -> list[dict]:
+    """Only the records' metadata (shape, params, pose, ...): the arrays are not decompressed."""
+    with np.load(_source(source), allow_pickle=False) as data:
+        return json.loads(str(data["meta"]))
+
+
+def _source(source: Path | bytes):
+    import io
+
+    return io.BytesIO(source) if isinstance(source, bytes) else source
 
 
 def software_versions() -> dict[str, str]:
@@ -285,25 +298,35 @@ class Dataset:
     def failed(self) -> list[dict]:
         return list(self.manifest.get("failed", []))
 
-    def _shard(self, entry: Mapping, full: bool) -> list[GraspRecord]:
-        path = self.path / entry["file"]
+    def _bytes(self, entry: Mapping) -> bytes | None:
+        """A shard's bytes once its checksum matches the manifest's; None (and a warning
+        naming the file) otherwise."""
         try:
-            data = path.read_bytes()
+            data = (self.path / entry["file"]).read_bytes()
         except OSError as exc:
             return self._bad(entry, f"unreadable ({exc.strerror or exc})")
         if hashlib.sha256(data).hexdigest() != entry["sha256"]:
             return self._bad(entry, "checksum mismatch")
-        try:
-            return decode_shard(path, full)
-        except (OSError, ValueError, KeyError, UsageError) as exc:
-            return self._bad(entry, f"undecodable ({exc})")
+        return data
 
-    def _bad(self, entry: Mapping, why: str) -> list[GraspRecord]:
+    def _decoded(self, entry: Mapping, decode: Callable[[bytes], list]) -> list:
+        data = self._bytes(entry)
+        if data is None:
+            return []
+        try:
+            return decode(data)
+        except (OSError, ValueError, KeyError, TypeError, UsageError) as exc:
+            self._bad(entry, f"undecodable ({exc})")
+            return []
+
+    def _shard(self, entry: Mapping, full: bool) -> list[GraspRecord]:
+        return self._decoded(entry, lambda data: decode_shard(data, full))
+
+    def _bad(self, entry: Mapping, why: str) -> None:
         message = f"{entry['file']}: {why}; its {entry['records']} records are skipped"
         if entry["file"] not in self.corrupted:
             self.corrupted.append(entry["file"])
             print(f"tactile-bullet: warning: {self.path}/{message}", file=sys.stderr)
-        return []
 
     def records(self, full: bool = False) -> Iterator[GraspRecord]:
         """Records in task order; time series only when ``full`` (they dominate memory)."""
@@ -323,7 +346,25 @@ class Dataset:
         return np.vstack(blocks) if blocks else np.zeros((0, 0))
 
     def labels(self) -> np.ndarray:
-        return np.array([r.shape for r in self.records(full=False)])
+        """(n,) shape names, the classes to learn, in the order of ``records()``."""
+        return self.metadata()["shape"]
+
+    def metadata(self) -> dict[str, Any]:
+        """Per-record metadata as arrays, in the order of ``records()``, for binning results
+        (accuracy by size, position, rotation) without decompressing any time series:
+        ``shape`` (n,) str, ``offset`` (n, 3) m, ``rotation`` (n,) rad, ``seed`` (n,),
+        ``params`` {name: (n,) float}, NaN where a record's shape has no such parameter."""
+        metas = [m for entry in self.shards for m in self._decoded(entry, decode_shard_metadata)]
+        names = sorted({k for m in metas for k in m["params"]})
+        return {
+            "shape": np.array([m["shape"] for m in metas], dtype=str),
+            "offset": np.array([m["pose"]["offset"] for m in metas], float).reshape(-1, 3),
+            "rotation": np.array([m["pose"]["rotation"] for m in metas], float),
+            "seed": np.array([m["seed"] for m in metas], np.int64),
+            "params": {
+                k: np.array([m["params"].get(k, np.nan) for m in metas], float) for k in names
+            },
+        }
 
 
 def load_dataset(path: str | os.PathLike) -> Dataset:

@@ -103,6 +103,28 @@ def test_lazy_records_skip_time_series_and_features_come_shard_by_shard(tmp_path
     assert list(data.labels()) == ["cylinder"] * 14
 
 
+def test_metadata_comes_as_arrays_for_binning(tmp_path):
+    text = (
+        MANY
+        + """
+[[shapes]]
+name = "sphere"
+params = { radius = [0.045] }
+rotation_deg = [10]
+"""
+    )
+    out = tmp_path / "ds"
+    generate(sweep(tmp_path, text), out, workers=0, shard_size=4, task_fn=fake_grasp)
+    meta = load_dataset(out).metadata()
+    records = list(load_dataset(out).records())
+    assert list(meta["shape"]) == [r.shape for r in records] == ["cylinder"] * 14 + ["sphere"]
+    assert np.array_equal(meta["offset"], [r.pose.offset for r in records])
+    assert np.allclose(meta["rotation"][-1], np.radians(10)) and not meta["rotation"][:-1].any()
+    radius = meta["params"]["radius"]
+    assert sorted(set(radius[:14])) == [0.025, 0.03, 0.035, 0.04, 0.045]
+    assert np.isnan(meta["params"]["length"][-1])  # a sphere has no length
+
+
 def test_a_corrupted_shard_is_named_and_the_rest_still_loads(tmp_path, capsys):
     out = tmp_path / "ds"
     generate(sweep(tmp_path, MANY), out, workers=0, shard_size=4, task_fn=fake_grasp)
@@ -135,6 +157,14 @@ def test_out_that_is_a_non_empty_folder_is_refused(tmp_path):
     assert (tmp_path / "ds" / "notes.txt").read_text() == "mine"
 
 
+def listed_shards(out) -> list:
+    """The shards the manifest lists (it is replaced atomically, so always whole)."""
+    try:
+        return json.loads((out / "manifest.json").read_text())["shards"]
+    except FileNotFoundError:
+        return []
+
+
 def test_killed_run_resumes_to_the_same_records_as_an_uninterrupted_one(tmp_path):
     """A real run (real simulator, worker processes) killed once its first shard is on disk,
     then resumed, holds exactly the records of a run that was never interrupted."""
@@ -146,15 +176,11 @@ def test_killed_run_resumes_to_the_same_records_as_an_uninterrupted_one(tmp_path
     proc = subprocess.Popen(cmd, start_new_session=True, stdout=subprocess.DEVNULL,
                             stderr=subprocess.DEVNULL)  # fmt: skip
     deadline = time.time() + 120
-    while time.time() < deadline:
-        shards = list(killed.glob("shard-*.npz"))
-        if shards:
-            break
-        time.sleep(0.05)
+    while time.time() < deadline and not listed_shards(killed):
+        time.sleep(0.02)
     os.killpg(proc.pid, signal.SIGKILL)
     proc.wait()
-    partial = json.loads((killed / "manifest.json").read_text())
-    assert 1 <= len(partial["shards"]) < 4, "the kill should land mid-run"
+    assert 1 <= len(listed_shards(killed)) < 4, "the kill should land mid-run"
 
     doc = generate(Sweep.from_toml(config), killed, workers=0, shard_size=1, resume=True)
     assert doc["records"] == 4 and doc["shards"] == 4

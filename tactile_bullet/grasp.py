@@ -11,9 +11,11 @@ Per finger (ff, mf, rf, lf), independently and all at once:
 The J1/J2 tendon is modelled in the controller (PyBullet ignores URDF transmissions): J0's
 increments go to J2 first, as on the real hand where the middle phalanx leads; once J2 is
 blocked (its effort over the threshold, or its limit) the tendon's further travel goes to J1.
-The thumb is held opposed throughout. The grasp ends when every finger is done (or at
-``max_time``, flagged ``did_not_settle``), then the hand holds its targets ``settle_steps``
-steps and the final state is read.
+A joint that stops holds the angle it was measured at (position control, J3 at the sheet's
+2 N m, the J0 tendon at 1 N m). Before the fingers move, the thumb is brought to opposition,
+stopping where it meets the object, and held there. The grasp ends when every finger is done
+(or at ``max_time``, flagged ``did_not_settle``); the hand then holds its targets
+``settle_steps`` steps and the final state is read.
 """
 
 from __future__ import annotations
@@ -34,7 +36,7 @@ from .hand import (
 )
 from .records import ControllerSettings, GraspRecord, Pose
 from .scene import Scene
-from .shapes import BUILTIN_SHAPES, Shape
+from .shapes import Shape
 
 J3, J0 = 0, 1
 DONE = 2
@@ -47,14 +49,10 @@ PENETRATION_TOLERANCE = 0.002
 
 
 def resolve_shape(name: str) -> Shape:
-    """The Shape called ``name`` from the plugin registry (built-ins included)."""
-    try:
-        from .plugins import get_shape
-    except ImportError:  # registry not built yet: the built-in table
-        table = {s.name: s for s in BUILTIN_SHAPES}
-        if name not in table:
-            raise UsageError(f"unknown shape {name!r} (shapes: {', '.join(table)})") from None
-        return table[name]
+    """The Shape called ``name`` from the plugin registry (built-ins included); an unknown
+    name is a UsageError listing the known ones."""
+    from .plugins import get_shape
+
     return get_shape(name)
 
 

@@ -116,10 +116,8 @@ def run(args: argparse.Namespace) -> int:
 
 def _signature_block(record) -> dict | None:
     """The DESIGN `signature` block, or None where the grasp gives no signature."""
-    try:
-        from ..patterns import signature_summary
-    except ImportError:
-        return None
+    from ..patterns import signature_summary
+
     try:
         return signature_summary(record)
     except UsageError:

@@ -14,12 +14,8 @@ def add_parser(sub) -> None:
 
 
 def _all_shapes():
-    try:
-        from ..plugins import get_shape, shape_names
-    except ImportError:
-        from ..shapes import BUILTIN_SHAPES
+    from ..plugins import get_shape, shape_names
 
-        return list(BUILTIN_SHAPES)
     return [get_shape(n) for n in shape_names()]
 
 

@@ -68,6 +68,9 @@ def main(argv: list[str] | None = None) -> int:
     except KeyboardInterrupt:
         print("tactile-bullet: interrupted", file=sys.stderr)
         return 130
+    except BrokenPipeError:  # `tactile-bullet shapes --json | head`: the reader left
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+        return 0
     except Exception as exc:  # noqa: BLE001 - the CLI's last line of defence
         if os.environ.get("TACTILE_BULLET_DEBUG"):
             traceback.print_exc()

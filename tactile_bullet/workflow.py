@@ -23,8 +23,16 @@ from .records import GraspRecord, Pose
 DEMO_SHAPES: tuple[str, ...] = ("cone", "torus", "sphere", "hyperboloid", "cylinder")
 """The thesis' five test shapes."""
 
-DEMO_CLASSIFIERS: tuple[str, ...] = ("svm", "knn", "som", "dtw-template")
-"""Classifiers the demo compares on the signature: the ones that train in seconds."""
+def _demo_classifiers() -> tuple[str, ...]:
+    """Classifiers the demo compares on the signature: the ones that train in seconds, with
+    the neural forest where torch is installed (the ``torch`` extra)."""
+    import importlib.util
+
+    names = ("svm", "knn", "som", "dtw-template")
+    return names + (("neural-forest",) if importlib.util.find_spec("torch") else ())
+
+
+DEMO_CLASSIFIERS: tuple[str, ...] = _demo_classifiers()
 
 LATENCY_SAMPLES = 20
 """Single-grasp predictions timed per pair in :func:`compare` (the median is reported)."""

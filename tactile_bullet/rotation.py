@@ -44,13 +44,17 @@ class RotationCalibration:
     shapes: tuple[str, ...] = ()
     per_shape: Mapping[str, Mapping[str, float]] = field(default_factory=dict)
 
-    def estimate(self, alpha_deg: float, shape: str | None = None) -> float:
-        """Rotation (deg) that would produce ``alpha_deg`` (with ``shape``'s own line if
-        the calibration has one)."""
-        own = self.per_shape.get(shape) if shape is not None else None
+    def estimate(self, alpha_deg: float, shape: str | None = None) -> float | None:
+        """Rotation (deg) that would produce ``alpha_deg``: with ``shape``'s own line, None
+        for a shape the calibration has no line for (a cone's signature is sloped by its
+        shape, not by a rotation; the pooled line's error is ~28 deg), the pooled line when
+        no shape is given."""
+        if shape is None:
+            return (float(alpha_deg) - self.intercept) / self.slope
+        own = self.per_shape.get(shape)
         if own and np.isfinite(own["slope"]) and own["slope"] != 0:
             return (float(alpha_deg) - own["intercept"]) / own["slope"]
-        return (float(alpha_deg) - self.intercept) / self.slope
+        return None
 
 
 def alpha_of(signature, line: str = "mean") -> float:

@@ -139,10 +139,11 @@ def _open_out(out: Path, sweep: Sweep, seed: int, shard_size: int, n_tasks: int,
                 f"{out} holds an unreadable manifest; refusing to overwrite it"
             ) from None
         if existing != config:
-            raise UsageError(
-                f"{out} holds a different dataset ({existing['sweep'].get('name')!r}, seed "
-                f"{existing.get('seed')}); choose another --out"
-            )
+            differs = [k for k in config if existing.get(k) != config[k]] or ["config"]
+            shown = {"sweep": f"sweep {existing.get('sweep', {}).get('name')!r}"}
+            detail = ", ".join(shown.get(k, f"{k.replace('_', '-')} {existing.get(k)}")
+                               for k in differs)  # fmt: skip
+            raise UsageError(f"{out} holds a different dataset ({detail}); choose another --out")
         done = sum(s["records"] + s["failed"] for s in data["shards"])
         if not resume:
             state = "complete" if done >= n_tasks else f"partial ({done}/{n_tasks} tasks)"
@@ -336,11 +337,12 @@ class Dataset:
     def __iter__(self) -> Iterator[GraspRecord]:
         return self.records(full=True)
 
-    def features(self, descriptor) -> np.ndarray:
-        """(n, d) features of every record, computed shard by shard."""
+    def features(self, descriptor, full: bool = False) -> np.ndarray:
+        """(n, d) features of every record, computed shard by shard so that only one shard's
+        records are in memory; ``full`` for descriptors that read the time series."""
         blocks = []
         for entry in self.shards:
-            recs = self._shard(entry, full=False)
+            recs = self._shard(entry, full=full)
             if recs:
                 blocks.append(np.asarray(descriptor.transform(recs), float))
         return np.vstack(blocks) if blocks else np.zeros((0, 0))

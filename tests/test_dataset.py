@@ -142,8 +142,10 @@ def test_out_holding_a_different_dataset_is_refused_and_left_alone(tmp_path):
     out = tmp_path / "ds"
     generate(sweep(tmp_path), out, workers=0, shard_size=2, task_fn=fake_grasp)
     before = {p.name: p.read_bytes() for p in out.iterdir()}
-    with pytest.raises(UsageError, match="different dataset"):
+    with pytest.raises(UsageError, match="different dataset .sweep 'small'"):
         generate(sweep(tmp_path, MANY), out, workers=0, task_fn=fake_grasp, shard_size=2)
+    with pytest.raises(UsageError, match="different dataset .shard-size 2"):
+        generate(sweep(tmp_path), out, workers=0, shard_size=3, resume=True, task_fn=fake_grasp)
     with pytest.raises(UsageError, match="already holds this dataset, complete; use --resume"):
         generate(sweep(tmp_path), out, workers=0, shard_size=2, task_fn=fake_grasp)
     assert {p.name: p.read_bytes() for p in out.iterdir()} == before

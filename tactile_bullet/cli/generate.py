@@ -16,7 +16,9 @@ def add_parser(sub) -> None:
         "Shards are written atomically; a killed run is finished with --resume.",
     )
     source = parser.add_mutually_exclusive_group(required=True)
-    source.add_argument("--preset", help="thesis, modified or smoke")
+    source.add_argument(
+        "--preset", help="thesis, modified, sequential or smoke (a few grasps, seconds)"
+    )
     source.add_argument("--config", metavar="FILE.toml", help="a sweep declared in TOML")
     parser.add_argument("--out", required=True, help="dataset directory (new or resumed)")
     parser.add_argument("--workers", type=int, default=1, help="local worker processes")

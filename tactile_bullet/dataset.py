@@ -34,7 +34,7 @@ from . import __version__
 from .errors import UsageError
 from .files import write_bytes_atomic
 from .records import GraspRecord, record_from_parts
-from .sweeps import GraspTask, Sweep
+from .sweeps import Sweep
 
 FORMAT = 1
 MANIFEST = "manifest.json"
@@ -355,14 +355,20 @@ class Dataset:
         """Per-record metadata as arrays, in the order of ``records()``, for binning results
         (accuracy by size, position, rotation) without decompressing any time series:
         ``shape`` (n,) str, ``offset`` (n, 3) m, ``rotation`` (n,) rad, ``seed`` (n,),
-        ``params`` {name: (n,) float}, NaN where a record's shape has no such parameter."""
-        metas = [m for entry in self.shards for m in self._decoded(entry, decode_shard_metadata)]
+        ``params`` {name: (n,) float}, NaN where a record's shape has no such parameter;
+        ``task`` (n,) the sweep's task index (seeds are 32-bit and may repeat in big sweeps)."""
+        metas, tasks = [], []
+        for entry in self.shards:
+            shard = self._decoded(entry, decode_shard_metadata)
+            metas += shard
+            tasks += entry["tasks"] if len(entry["tasks"]) == len(shard) else [-1] * len(shard)
         names = sorted({k for m in metas for k in m["params"]})
         return {
             "shape": np.array([m["shape"] for m in metas], dtype=str),
             "offset": np.array([m["pose"]["offset"] for m in metas], float).reshape(-1, 3),
             "rotation": np.array([m["pose"]["rotation"] for m in metas], float),
             "seed": np.array([m["seed"] for m in metas], np.int64),
+            "task": np.array(tasks, np.int64),
             "params": {
                 k: np.array([m["params"].get(k, np.nan) for m in metas], float) for k in names
             },
@@ -371,8 +377,3 @@ class Dataset:
 
 def load_dataset(path: str | os.PathLike) -> Dataset:
     return Dataset(path)
-
-
-def task_of(record: GraspRecord, tasks: Sequence[GraspTask]) -> GraspTask | None:
-    """The task that produced a record (matched by seed), for tests and tools."""
-    return next((t for t in tasks if t.seed == record.seed), None)

@@ -123,6 +123,7 @@ rotation_deg = [10]
     radius = meta["params"]["radius"]
     assert sorted(set(radius[:14])) == [0.025, 0.03, 0.035, 0.04, 0.045]
     assert np.isnan(meta["params"]["length"][-1])  # a sphere has no length
+    assert list(meta["task"]) == [i for i in range(16) if i != 5]  # task 5 failed
 
 
 def test_a_corrupted_shard_is_named_and_the_rest_still_loads(tmp_path, capsys):

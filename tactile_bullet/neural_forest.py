@@ -140,7 +140,8 @@ class NeuralForestClassifier(ClassifierMixin, BaseEstimator):
     device : str
         Torch device for training ("cpu", "cuda"); prediction runs in numpy.
     random_state : int, RandomState instance or None
-        Seeds the feature subsets, initial weights and mini-batches.
+        Seeds the feature subsets, initial weights and mini-batches (0 by default, like the
+        other built-in classifiers, so the same data trains the same model; None draws one).
 
     Attributes
     ----------
@@ -178,7 +179,7 @@ class NeuralForestClassifier(ClassifierMixin, BaseEstimator):
         learning_rate: float = 0.03,
         memory_size: int = 500,
         device: str = "cpu",
-        random_state: int | np.random.RandomState | None = None,
+        random_state: int | np.random.RandomState | None = 0,
     ) -> None:
         self.n_trees = n_trees
         self.depth = depth

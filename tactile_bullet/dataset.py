@@ -148,6 +148,8 @@ def _open_out(out: Path, sweep: Sweep, seed: int, shard_size: int, n_tasks: int,
         if not resume:
             state = "complete" if done >= n_tasks else f"partial ({done}/{n_tasks} tasks)"
             raise UsageError(f"{out} already holds this dataset, {state}; use --resume")
+        for stale in [*out.glob(".shard-*.tmp.npz"), *out.glob(".manifest.*.tmp.json")]:
+            stale.unlink(missing_ok=True)  # half-written by the killed run
         return _Manifest(manifest_path, data)
     if out.exists() and (not out.is_dir() or any(out.iterdir())):
         raise UsageError(f"--out {out} exists and is not an empty directory or a dataset")
@@ -198,13 +200,19 @@ def generate(
     start = time.perf_counter()
     out = Path(out)
     tasks = sweep.tasks(seed)
-    manifest = _open_out(out, sweep, seed, shard_size, len(tasks), resume)
+    client = executors.connect_dask(cluster) if cluster else None
+    try:
+        manifest = _open_out(out, sweep, seed, shard_size, len(tasks), resume)
+    except BaseException:
+        if client is not None:
+            client.close()
+        raise
     blocks_done = {s["block"] for s in manifest.data["shards"]}
     todo = [t for t in tasks if t.index // shard_size not in blocks_done]
     task_fn = task_fn or executors.run_task
 
-    if cluster:
-        results = executors.run_dask(todo, cluster, task_fn)
+    if client is not None:
+        results = executors.run_dask(todo, client, task_fn)
     elif workers == 0:
         results = ((t.index, task_fn(t)) for t in todo)
     else:

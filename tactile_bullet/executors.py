@@ -125,21 +125,28 @@ def _run_pool(tasks, workers, task_fn):
     return [], []
 
 
-def run_dask(
-    tasks: Sequence[GraspTask], address: str, task_fn: Callable = run_task, timeout: float = 5.0
-) -> Iterator[tuple[int, Outcome]]:
-    """Run tasks on a Dask distributed cluster; the scheduler re-runs the tasks of a worker
-    that dies (its ``allowed-failures`` decides how often)."""
+def connect_dask(address: str, timeout: float = 5.0):
+    """A client of the Dask scheduler at ``address``, or a UsageError within ``timeout``
+    seconds; called before anything is written, so a wrong address leaves no trace."""
     try:
-        from distributed import Client, as_completed
+        from distributed import Client
     except ImportError:
         raise UsageError(
             "--cluster needs dask.distributed: pip install 'tactile-bullet[cluster]'"
         ) from None
     try:
-        client = Client(address, timeout=timeout)
+        return Client(address, timeout=timeout)
     except (OSError, TimeoutError, ValueError) as exc:
         raise UsageError(f"cannot reach the Dask scheduler at {address} ({exc})") from None
+
+
+def run_dask(
+    tasks: Sequence[GraspTask], client, task_fn: Callable = run_task
+) -> Iterator[tuple[int, Outcome]]:
+    """Run tasks on a Dask cluster through ``client`` (closed at the end); the scheduler
+    re-runs the tasks of a worker that dies (its ``allowed-failures`` decides how often)."""
+    from distributed import as_completed
+
     try:
         futures = client.map(task_fn, list(tasks), pure=False)
         index = {f.key: t.index for f, t in zip(futures, tasks, strict=True)}

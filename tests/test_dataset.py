@@ -184,6 +184,7 @@ def test_killed_run_resumes_to_the_same_records_as_an_uninterrupted_one(tmp_path
     os.killpg(proc.pid, signal.SIGKILL)
     proc.wait()
     assert 1 <= len(listed_shards(killed)) < 4, "the kill should land mid-run"
+    (killed / ".shard-00003.999.tmp.npz").write_bytes(b"half a shard")  # as a kill leaves
 
     doc = generate(Sweep.from_toml(config), killed, workers=0, shard_size=1, resume=True)
     assert doc["records"] == 4 and doc["shards"] == 4
@@ -192,3 +193,4 @@ def test_killed_run_resumes_to_the_same_records_as_an_uninterrupted_one(tmp_path
     a, b = list(load_dataset(killed)), list(load_dataset(whole))
     assert len(a) == len(b) == 4
     assert all(x.equals(y) for x, y in zip(a, b, strict=True))
+    assert sorted(p.name for p in killed.iterdir()) == sorted(p.name for p in whole.iterdir())

@@ -12,7 +12,7 @@ import pytest
 from tactile_bullet.dataset import generate, load_dataset
 from tactile_bullet.errors import UsageError
 from tactile_bullet.executors import CRASH_ENV
-from tactile_bullet.sweeps import Sweep
+from tactile_bullet.sweeps import Sweep, preset
 
 SMALL = """
 name = "small"
@@ -75,14 +75,16 @@ def test_unreachable_cluster_is_a_clear_error(small, tmp_path):
         port = s.getsockname()[1]
     with pytest.raises(UsageError, match="cannot reach the Dask scheduler"):
         generate(Sweep.from_toml(small), tmp_path / "ds", cluster=f"tcp://127.0.0.1:{port}")
+    assert not (tmp_path / "ds").exists()  # nothing written: the same --out works next time
 
 
-def test_cli_json_contract(small, tmp_path):
-    result = cli("generate", "--config", str(small), "--out", str(tmp_path / "ds"), "--json")
+def test_cli_json_contract(tmp_path):
+    result = cli("generate", "--preset", "smoke", "--out", str(tmp_path / "ds"), "--json")
     assert result.returncode == 0, result.stderr
     doc = json.loads(result.stdout)
     assert set(doc) >= {"out", "records", "shards", "failed", "wall_time_s"}
-    assert doc["records"] == 4 and doc["failed"] == 0
+    assert doc["records"] == len(preset("smoke").tasks()) and doc["failed"] == 0
+    assert len(load_dataset(tmp_path / "ds")) == doc["records"]
 
 
 @pytest.mark.parametrize(

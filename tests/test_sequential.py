@@ -1,0 +1,31 @@
+"""`tactile-bullet sequential`: the chapter-4 experiment from the CLI."""
+
+from __future__ import annotations
+
+import pytest
+
+from tactile_bullet.cli import main
+
+pytest.importorskip("torch")
+
+
+def test_timing_runs_on_synthetic_classes(capsys):
+    args = ["--classes", "3", "--per-class", "40", "--n-updates", "40", "--recalibration", "10"]
+    code = main(["sequential", "--synthetic", "--timing", "--latency-samples", "5", *args])
+    assert code == 0
+    out = capsys.readouterr().out
+    assert "offline" in out and "sequential" in out
+
+
+def test_experiment_writes_its_three_figures(tmp_path):
+    code = main(["sequential", "--synthetic", "--classes", "3", "--per-class", "40",
+                 "--orders", "2", "--n-updates", "40", "--recalibration", "10",
+                 "--out", str(tmp_path)])  # fmt: skip
+    assert code == 0
+    names = {p.name for p in tmp_path.iterdir()}
+    assert {"accuracy_vs_objects.png", "updates_per_tree.png", "disturbance_matrix.png"} <= names
+
+
+def test_without_data_it_says_what_to_give(capsys):
+    assert main(["sequential"]) == 2
+    assert "--data DIR" in capsys.readouterr().err

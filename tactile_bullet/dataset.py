@@ -18,6 +18,7 @@ Shards hold no pickles: metadata is a JSON string, arrays are plain numeric arra
 
 from __future__ import annotations
 
+import contextlib
 import hashlib
 import json
 import os
@@ -38,6 +39,8 @@ from .sweeps import Sweep
 
 FORMAT = 1
 MANIFEST = "manifest.json"
+LOCK = ".lock"
+"""Held (flock) by the one generate writing the dataset."""
 DEFAULT_SHARD_SIZE = 32
 SERIES = ("time", "angles", "efforts")
 """Per-record time series: skipped when records are loaded with ``full=False``."""
@@ -151,12 +154,8 @@ def _open_out(out: Path, sweep: Sweep, seed: int, shard_size: int, n_tasks: int,
         for stale in [*out.glob(".shard-*.tmp.npz"), *out.glob(".manifest.*.tmp.json")]:
             stale.unlink(missing_ok=True)  # half-written by the killed run
         return _Manifest(manifest_path, data)
-    if out.exists() and (not out.is_dir() or any(out.iterdir())):
+    if any(p.name != LOCK for p in out.iterdir()):
         raise UsageError(f"--out {out} exists and is not an empty directory or a dataset")
-    try:
-        out.mkdir(parents=True, exist_ok=True)
-    except OSError as exc:
-        raise UsageError(f"cannot create --out {out}: {exc.strerror or exc}") from None
     if not os.access(out, os.W_OK):
         raise UsageError(f"--out {out} is not writable")
     manifest = _Manifest(
@@ -202,22 +201,70 @@ def generate(
     tasks = sweep.tasks(seed)
     client = executors.connect_dask(cluster) if cluster else None
     try:
-        manifest = _open_out(out, sweep, seed, shard_size, len(tasks), resume)
-    except BaseException:
+        _make_out(out)
+        with _writer_lock(out):
+            manifest = _open_out(out, sweep, seed, shard_size, len(tasks), resume)
+            blocks_done = {s["block"] for s in manifest.data["shards"]}
+            todo = [t for t in tasks if t.index // shard_size not in blocks_done]
+            task_fn = task_fn or executors.run_task
+            if client is not None:
+                results = executors.run_dask(todo, client, task_fn)
+                client = None  # run_dask closes it
+            elif workers == 0:
+                results = ((t.index, task_fn(t)) for t in todo)
+            else:
+                results = executors.run_local(todo, workers, task_fn)
+            _fill(out, manifest, todo, results, shard_size, progress)
+    finally:
         if client is not None:
             client.close()
-        raise
-    blocks_done = {s["block"] for s in manifest.data["shards"]}
-    todo = [t for t in tasks if t.index // shard_size not in blocks_done]
-    task_fn = task_fn or executors.run_task
+    shards = manifest.data["shards"]
+    return {
+        "out": str(out),
+        "records": sum(s["records"] for s in shards),
+        "shards": len(shards),
+        "failed": len(manifest.data["failed"]),
+        "wall_time_s": time.perf_counter() - start,
+    }
 
-    if client is not None:
-        results = executors.run_dask(todo, client, task_fn)
-    elif workers == 0:
-        results = ((t.index, task_fn(t)) for t in todo)
-    else:
-        results = executors.run_local(todo, workers, task_fn)
 
+def _make_out(out: Path) -> None:
+    """Create ``out`` if needed; refuse (touching nothing) a file or a folder of other data."""
+    if out.exists() and not out.is_dir():
+        raise UsageError(f"--out {out} exists and is not a directory")
+    if out.is_dir() and not (out / MANIFEST).exists():
+        if any(p.name != LOCK for p in out.iterdir()):
+            raise UsageError(f"--out {out} exists and is not an empty directory or a dataset")
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise UsageError(f"cannot create --out {out}: {exc.strerror or exc}") from None
+
+
+@contextlib.contextmanager
+def _writer_lock(out: Path) -> Iterator[None]:
+    """One writer per dataset: a second generate on the same --out (a --resume started while
+    the first still runs) would rewrite the manifest under it. The OS drops the lock when its
+    process dies, so a killed run never blocks the --resume that follows."""
+    try:
+        import fcntl
+    except ImportError:  # Windows: no advisory locks; one writer is then the user's care
+        yield
+        return
+    try:
+        handle = open(out / LOCK, "a")  # noqa: SIM115 - held until the with block ends
+    except OSError as exc:
+        raise UsageError(f"--out {out} is not writable ({exc.strerror or exc})") from None
+    with handle:
+        try:
+            fcntl.flock(handle, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except OSError:
+            raise UsageError(f"another generate is writing to {out}; let it finish") from None
+        yield
+
+
+def _fill(out, manifest, todo, results, shard_size: int, progress: bool) -> None:
+    """Collect outcomes as they come and write each block's shard once the block is whole."""
     block_sizes: dict[int, int] = {}
     for t in todo:
         block_sizes[t.index // shard_size] = block_sizes.get(t.index // shard_size, 0) + 1
@@ -236,14 +283,6 @@ def generate(
             _write_block(out, manifest, block, buffers.pop(block))
     if bar is not None:
         bar.close()
-    shards = manifest.data["shards"]
-    return {
-        "out": str(out),
-        "records": sum(s["records"] for s in shards),
-        "shards": len(shards),
-        "failed": len(manifest.data["failed"]),
-        "wall_time_s": time.perf_counter() - start,
-    }
 
 
 def _write_block(out: Path, manifest: _Manifest, block: int, outcomes: Mapping[int, Any]):

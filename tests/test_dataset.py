@@ -157,7 +157,22 @@ def test_out_that_is_a_non_empty_folder_is_refused(tmp_path):
     (tmp_path / "ds" / "notes.txt").write_text("mine")
     with pytest.raises(UsageError, match="not an empty directory"):
         generate(sweep(tmp_path), tmp_path / "ds", workers=0, task_fn=fake_grasp)
+    assert [p.name for p in (tmp_path / "ds").iterdir()] == ["notes.txt"]
     assert (tmp_path / "ds" / "notes.txt").read_text() == "mine"
+
+
+def test_a_second_writer_on_the_same_dataset_is_refused(tmp_path):
+    import fcntl
+
+    out = tmp_path / "ds"
+    generate(sweep(tmp_path), out, workers=0, shard_size=8, task_fn=fake_grasp)
+    with open(out / ".lock", "a") as held:  # as a generate still running would hold it
+        fcntl.flock(held, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        with pytest.raises(UsageError, match="another generate is writing"):
+            generate(sweep(tmp_path), out, workers=0, shard_size=8, resume=True,
+                     task_fn=fake_grasp)  # fmt: skip
+    doc = generate(sweep(tmp_path), out, workers=0, shard_size=8, resume=True, task_fn=fake_grasp)
+    assert doc["records"] == 4  # the lock went with its holder
 
 
 def listed_shards(out) -> list:

@@ -181,21 +181,24 @@ def generate(
     cluster: str | None = None,
     resume: bool = False,
     seed: int = 0,
-    shard_size: int = DEFAULT_SHARD_SIZE,
+    shard_size: int | None = None,
     progress: bool = False,
     task_fn: Callable | None = None,
 ) -> dict[str, Any]:
     """Simulate every task of ``sweep`` into the dataset directory ``out``.
 
     ``workers`` local processes (0: in this process, no crash isolation), or the Dask
-    scheduler at ``cluster``. Returns the ``generate --json`` document.
+    scheduler at ``cluster``. ``shard_size`` None: the existing dataset's (on --resume),
+    else DEFAULT_SHARD_SIZE. Returns the ``generate --json`` document.
     """
     from . import executors
 
+    if shard_size is None:
+        shard_size = _existing_shard_size(Path(out)) or DEFAULT_SHARD_SIZE
     if workers < 0:
         raise UsageError(f"--workers must be >= 0, got {workers}")
     if shard_size < 1:
-        raise UsageError(f"shard size must be >= 1, got {shard_size}")
+        raise UsageError(f"--shard-size must be >= 1, got {shard_size}")
     start = time.perf_counter()
     out = Path(out)
     tasks = sweep.tasks(seed)
@@ -226,6 +229,13 @@ def generate(
         "failed": len(manifest.data["failed"]),
         "wall_time_s": time.perf_counter() - start,
     }
+
+
+def _existing_shard_size(out: Path) -> int | None:
+    try:
+        return int(json.loads((out / MANIFEST).read_text())["config"]["shard_size"])
+    except (OSError, ValueError, KeyError, TypeError):
+        return None  # no dataset there (or an unreadable one, refused later)
 
 
 def _make_out(out: Path) -> None:

@@ -201,7 +201,7 @@ def test_killed_run_resumes_to_the_same_records_as_an_uninterrupted_one(tmp_path
     assert 1 <= len(listed_shards(killed)) < 4, "the kill should land mid-run"
     (killed / ".shard-00003.999.tmp.npz").write_bytes(b"half a shard")  # as a kill leaves
 
-    doc = generate(Sweep.from_toml(config), killed, workers=0, shard_size=1, resume=True)
+    doc = generate(Sweep.from_toml(config), killed, workers=0, resume=True)  # its shard size
     assert doc["records"] == 4 and doc["shards"] == 4
     whole = tmp_path / "whole"
     generate(Sweep.from_toml(config), whole, workers=0, shard_size=1)

@@ -25,13 +25,16 @@ def add_parser(sub) -> None:
     parser.add_argument("--cluster", metavar="ADDRESS", help="Dask scheduler, e.g. tcp://h:8786")
     parser.add_argument("--resume", action="store_true", help="finish an interrupted run")
     parser.add_argument("--seed", type=int, default=0)
-    parser.add_argument("--shard-size", type=int, default=None, help="grasps per shard")
+    parser.add_argument(
+        "--shard-size", type=int, default=None,
+        help="grasps per shard (default 32; on --resume, the dataset's own)",
+    )  # fmt: skip
     parser.add_argument("--json", action="store_true", help="print one JSON document")
     parser.set_defaults(run=run)
 
 
 def run(args: argparse.Namespace) -> int:
-    from ..dataset import DEFAULT_SHARD_SIZE, generate
+    from ..dataset import generate
     from ..sweeps import Sweep, preset
 
     sweep = preset(args.preset) if args.preset else Sweep.from_toml(args.config)
@@ -44,7 +47,7 @@ def run(args: argparse.Namespace) -> int:
         cluster=args.cluster,
         resume=args.resume,
         seed=args.seed,
-        shard_size=args.shard_size or DEFAULT_SHARD_SIZE,
+        shard_size=args.shard_size,
         progress=show_progress(args.json),
     )
     if args.json:

@@ -23,6 +23,7 @@ from .records import GraspRecord, Pose
 DEMO_SHAPES: tuple[str, ...] = ("cone", "torus", "sphere", "hyperboloid", "cylinder")
 """The thesis' five test shapes."""
 
+
 def _demo_classifiers() -> tuple[str, ...]:
     """Classifiers the demo compares on the signature: the ones that train in seconds, with
     the neural forest where torch is installed (the ``torch`` extra)."""

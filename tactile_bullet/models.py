@@ -24,7 +24,7 @@ from __future__ import annotations
 
 import json
 import re
-from collections.abc import Mapping, Sequence
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Protocol, runtime_checkable
@@ -104,30 +104,6 @@ class Model:
     def predict_proba_records(self, records: Sequence) -> np.ndarray:
         """(n, n_classes) probabilities; columns follow ``classes``."""
         return np.asarray(self.estimator.predict_proba(self.features(records)), dtype=float)
-
-
-def fit_model(
-    records: Sequence,
-    descriptor: str = "signature",
-    classifier: str = "svm",
-    descriptor_params: Mapping[str, Any] | None = None,
-    classifier_params: Mapping[str, Any] | None = None,
-    labels: Sequence[str] | None = None,
-) -> Model:
-    """Fit a classifier on a descriptor's features of ``records`` (labels: their shape names)."""
-    from .plugins import get_classifier, get_descriptor
-
-    desc = get_descriptor(descriptor, **dict(descriptor_params or {}))
-    y = np.asarray([r.shape for r in records] if labels is None else list(labels), dtype=str)
-    estimator = get_classifier(classifier, **dict(classifier_params or {}))
-    estimator.fit(desc.transform(records), y)
-    return Model(
-        descriptor=desc.name,
-        descriptor_params=dict(desc.params),
-        classifier=classifier,
-        classifier_params=dict(classifier_params or {}),
-        estimator=estimator,
-    )
 
 
 def _qualname(kind: type) -> str:

@@ -10,12 +10,11 @@ import zipfile
 import numpy as np
 import pytest
 
-from tactile_bullet import __version__, plugins
+from tactile_bullet import __version__, plugins, workflow
 from tactile_bullet.errors import UsageError
 from tactile_bullet.models import (
     MODEL_FORMAT_VERSION,
     Model,
-    fit_model,
     load_model,
     save_model,
 )
@@ -29,13 +28,13 @@ def _descriptor_for(classifier: str) -> str:
 
 @pytest.fixture(scope="module")
 def svm_model(synthetic_split):
-    return fit_model(synthetic_split[0], "signature+contact-normals", "svm")
+    return workflow.train(synthetic_split[0], "signature+contact-normals", "svm")
 
 
 @pytest.mark.parametrize("classifier", CLASSIFIERS)
 def test_saved_model_predicts_exactly_what_it_did(classifier, synthetic_split, tmp_path):
     train, test = synthetic_split
-    model = fit_model(train, _descriptor_for(classifier), classifier)
+    model = workflow.train(train, _descriptor_for(classifier), classifier)
     path = save_model(tmp_path / "model.npz", model)
     loaded = load_model(path)
     assert type(loaded.estimator) is type(model.estimator)
@@ -48,12 +47,12 @@ def test_saved_model_predicts_exactly_what_it_did(classifier, synthetic_split, t
 
 
 def test_model_remembers_names_parameters_and_versions(synthetic_split, tmp_path):
-    model = fit_model(
+    model = workflow.train(
         synthetic_split[0],
         "signature",
         "knn",
         descriptor_params={"points": 20},
-        classifier_params={"n_neighbors": 3},
+        params={"n_neighbors": 3},
     )
     model.info["records"] = len(synthetic_split[0])
     loaded = load_model(save_model(tmp_path / "m.npz", model))
@@ -253,7 +252,7 @@ def test_state_protocol_saves_a_plugin_classifier(register_test_plugin, syntheti
 
     register_test_plugin(Plugin(), "test-state-plugin")
     train, test = synthetic_split
-    model = fit_model(train, "contact-normals", "test-state-centroid")
+    model = workflow.train(train, "contact-normals", "test-state-centroid")
     assert isinstance(model.estimator, StatefulEstimator)
     path = save_model(tmp_path / "m.npz", model)
     with np.load(path, allow_pickle=False) as data:

@@ -138,3 +138,15 @@ def make_records(
                 )
             )
     return out
+
+
+SMALL_SWEEP = """
+name = "small"
+[[shapes]]
+name = "cylinder"
+params = { radius = [0.03, 0.04] }
+[[shapes]]
+name = "sphere"
+params = { radius = [0.04, 0.05] }
+"""
+"""Four real grasps (two cylinders, two spheres): the dataset tests' sweep."""

@@ -11,20 +11,11 @@ import time
 
 import numpy as np
 import pytest
+from synthetic import SMALL_SWEEP as SMALL
 
 from tactile_bullet.dataset import generate, load_dataset
 from tactile_bullet.errors import UsageError
 from tactile_bullet.sweeps import Sweep
-
-SMALL = """
-name = "small"
-[[shapes]]
-name = "cylinder"
-params = { radius = [0.03, 0.04] }
-[[shapes]]
-name = "sphere"
-params = { radius = [0.04, 0.05] }
-"""
 
 
 def fake_grasp(task):

@@ -8,21 +8,12 @@ import subprocess
 import sys
 
 import pytest
+from synthetic import SMALL_SWEEP as SMALL
 
 from tactile_bullet.dataset import generate, load_dataset
 from tactile_bullet.errors import UsageError
 from tactile_bullet.executors import CRASH_ENV
 from tactile_bullet.sweeps import Sweep, preset
-
-SMALL = """
-name = "small"
-[[shapes]]
-name = "cylinder"
-params = { radius = [0.03, 0.04] }
-[[shapes]]
-name = "sphere"
-params = { radius = [0.04, 0.05] }
-"""
 
 
 @pytest.fixture

@@ -13,7 +13,7 @@ import hashlib
 import os
 import sys
 import tempfile
-from collections.abc import Iterator, Mapping, Sequence
+from collections.abc import Iterator, Mapping
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -342,9 +342,3 @@ class Scene:
 
     def __exit__(self, *exc) -> None:
         self.close()
-
-
-def joint_limits_of(scene: Scene, names: Sequence[str]) -> np.ndarray:
-    """(n, 2) lower/upper limits (rad) of the named joints."""
-    idx = [JOINT_NAMES.index(n) for n in names]
-    return np.column_stack([scene.lower[idx], scene.upper[idx]])

@@ -6,23 +6,29 @@ once placed), centred on the origin. Each one gives three things:
 - ``mesh(**params)``: a watertight trimesh for rendering and checks;
 - ``radius(x, **params)``: the radius profile r(x) along O-O' (0 outside the solid), what a
   finger wrapping the cross-section at x adapts to (thesis eq. 2.3, theta = s / r);
-- ``pieces(**params)``: convex vertex sets whose union is the solid, for Bullet. Convex shapes
-  are one piece; the torus keeps its hole (angular sectors of the tube) and the hyperboloid its
-  waist (slabs along the axis), never the convex hull of a concave solid.
+- ``pieces(**params)``: the collision geometry for Bullet: convex vertex sets (hulls), or a
+  trimesh for an exact static triangle mesh. Convex shapes are one hull; the torus and the
+  hyperboloid are triangle meshes, so the hole and the waist stay (never the convex hull of a
+  concave solid).
 
-Sizes are in metres. Valid ranges are where the 4-finger enclosure grasp wraps the object with
-every finger (see ``tools/invariance.py`` for how they were measured).
+Sizes are in metres. Valid ranges are where the object clears the open hand and the grasp
+closes on it (both ends of every range were simulated; at the largest sphere and ovoid one
+finger can miss). Where the signature identifies the shape is narrower: see
+``docs/signature_invariance.md``.
 """
 
 from __future__ import annotations
 
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
 
 import numpy as np
-import trimesh
 
 from .errors import UsageError
+
+if TYPE_CHECKING:
+    import trimesh
 
 SECTIONS = 48
 """Facets around the axis: a 0.2% radius error, below Bullet's collision margin here."""
@@ -154,8 +160,16 @@ def hexagonal_pyramid_radius(x, radius=0.05, length=0.16):
 
 # --- meshes ---------------------------------------------------------------------------------
 
-_Z_TO_X = trimesh.transformations.rotation_matrix(np.pi / 2, [0, 1, 0])
+_Z_TO_X = np.array([[0.0, 0, 1, 0], [0, 1, 0, 0], [-1, 0, 0, 0], [0, 0, 0, 1]])
 """+90 deg about y: maps a solid built around z onto O-O' (z -> +x)."""
+
+
+def _trimesh():
+    """trimesh, imported on first mesh: it takes ~1-3 s, and listing shapes or loading the
+    plugin registry (train, evaluate, plugins) needs none."""
+    import trimesh
+
+    return trimesh
 
 
 def _revolve(
@@ -163,7 +177,7 @@ def _revolve(
 ) -> trimesh.Trimesh:
     """Revolve a closed radius profile (from r=0 to r=0) around O-O' (the x axis)."""
     line = np.column_stack([profile_r, profile_x])
-    mesh = trimesh.creation.revolve(line, sections=sections)
+    mesh = _trimesh().creation.revolve(line, sections=sections)
     # revolve works around z; rotate +90 deg about y so that z becomes +x.
     mesh.apply_transform(_Z_TO_X)
     mesh.fix_normals()
@@ -208,7 +222,7 @@ def torus(
     major_radius: float = 0.048, minor_radius: float = 0.042, sections: int = SECTIONS
 ) -> trimesh.Trimesh:
     """Torus around O-O': tube of ``minor_radius`` (m) centred ``major_radius`` (m) from it."""
-    mesh = trimesh.creation.torus(major_radius, minor_radius, sections, 32)
+    mesh = _trimesh().creation.torus(major_radius, minor_radius, sections, 32)
     mesh.apply_transform(_Z_TO_X)
     return mesh
 
@@ -247,7 +261,7 @@ def hexagonal_pyramid(
         [np.full(6, -length / 2), radius * np.cos(angles), radius * np.sin(angles)]
     )
     apex = np.array([[length / 2, 0.0, 0.0]])
-    return trimesh.convex.convex_hull(np.vstack([base, apex]))
+    return _trimesh().convex.convex_hull(np.vstack([base, apex]))
 
 
 # --- convex pieces for Bullet ---------------------------------------------------------------
@@ -274,39 +288,6 @@ def torus_pieces(major_radius: float = 0.048, minor_radius: float = 0.042) -> li
     return [torus(major_radius, minor_radius, sections=COLLISION_SECTIONS)]
 
 
-def torus_sector_pieces(
-    major_radius: float = 0.048, minor_radius: float = 0.042, sectors: int = 24
-) -> list[np.ndarray]:
-    """The tube cut into ``sectors`` angular wedges about O-O'; each wedge's hull is convex and
-    leaves the hole open (its inner bulge is the chord sagitta, R (1 - cos(pi / sectors)))."""
-    phi = np.linspace(0, 2 * np.pi, sectors + 1)
-    tube = np.linspace(0, 2 * np.pi, 24, endpoint=False)
-    out = []
-    for a0, a1 in zip(phi[:-1], phi[1:], strict=True):
-        pts = []
-        for a in np.linspace(a0, a1, 3):
-            rho = major_radius + minor_radius * np.cos(tube)
-            x = minor_radius * np.sin(tube)
-            pts.append(np.column_stack([x, rho * np.cos(a), rho * np.sin(a)]))
-        out.append(np.vstack(pts))
-    return out
-
-
-def _slabs(radius_fn, half: float, slabs: int, **params) -> list[np.ndarray]:
-    """Cut a solid of revolution into ``slabs`` pieces along O-O'; each is the hull of its two
-    end circles (a frustum), exact at the cuts and within the sagitta between them."""
-    edges = np.linspace(-half, half, slabs + 1)
-    ang = np.linspace(0, 2 * np.pi, SECTIONS, endpoint=False)
-    out = []
-    for x0, x1 in zip(edges[:-1], edges[1:], strict=True):
-        rings = []
-        for x in np.linspace(x0, x1, 3):
-            r = float(radius_fn(np.array([x]), **params)[0])
-            rings.append(np.column_stack([np.full_like(ang, x), r * np.cos(ang), r * np.sin(ang)]))
-        out.append(np.vstack(rings))
-    return out
-
-
 def hyperboloid_pieces(
     waist_radius: float = 0.028, end_radius: float = 0.045, length: float = 0.12
 ) -> list:
@@ -314,16 +295,6 @@ def hyperboloid_pieces(
     slabs along O-O' were tried first: a finger capsule straddling a cut felt the cut faces'
     sideways normals and slid along the waist."""
     return [hyperboloid(waist_radius, end_radius, length, sections=COLLISION_SECTIONS)]
-
-
-def hyperboloid_slab_pieces(
-    waist_radius: float = 0.028, end_radius: float = 0.045, length: float = 0.12, slabs: int = 12
-) -> list[np.ndarray]:
-    """The hyperboloid as ``slabs`` convex frusta along its axis: the waist stays concave."""
-    return _slabs(
-        hyperboloid_radius, length / 2 * (1 - 1e-9), slabs,
-        waist_radius=waist_radius, end_radius=end_radius, length=length,
-    )  # fmt: skip
 
 
 # --- the table ------------------------------------------------------------------------------

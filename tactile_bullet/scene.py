@@ -9,6 +9,7 @@ sits at the origin.
 from __future__ import annotations
 
 import contextlib
+import functools
 import hashlib
 import os
 import sys
@@ -107,7 +108,13 @@ def import_pybullet():
 def grasping_urdf() -> Path:
     """The hand's URDF with FIXED_JOINTS welded, cached next to the system's temp files
     (written once per content, atomically, so parallel workers can share it)."""
-    text = urdf_path().read_text()
+    return _welded_urdf(urdf_path())
+
+
+@functools.lru_cache(maxsize=4)
+def _welded_urdf(source: Path) -> Path:
+    """Read, weld and hash once per process and source, not once per grasp."""
+    text = source.read_text()
     for name in FIXED_JOINTS:
         text = text.replace(
             f'<joint name="{name}" type="revolute">', f'<joint name="{name}" type="fixed">'

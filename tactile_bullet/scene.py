@@ -108,7 +108,11 @@ def import_pybullet():
 def grasping_urdf() -> Path:
     """The hand's URDF with FIXED_JOINTS welded, cached next to the system's temp files
     (written once per content, atomically, so parallel workers can share it)."""
-    return _welded_urdf(urdf_path())
+    path = _welded_urdf(urdf_path())
+    if not path.exists():  # a temp cleaner removed it during a long run: write it again
+        _welded_urdf.cache_clear()
+        path = _welded_urdf(urdf_path())
+    return path
 
 
 @functools.lru_cache(maxsize=4)

@@ -21,18 +21,36 @@ def records():
 def test_signature_is_both_enhanced_lines_then_the_bulges(records):
     from tactile_bullet.signature import signature_of
 
-    desc = plugins.get_descriptor("signature")
+    desc = plugins.get_descriptor("signature", points=50)
     X = desc.transform(records)
     assert X.shape == (len(records), 102) and X.dtype == float
     names = desc.feature_names()
     assert len(names) == 102 and names[0] == "lower_000" and names[50] == "upper_000"
     assert names[-2:] == ["bulge_lower", "bulge_upper"]
     assert np.all(np.abs(X[:, :100]) <= 1.0 + 1e-9)
-    sig = signature_of(records[0])
+    sig = signature_of(records[0], floor=desc.floor)
     # end points of each line are kept by the resampling
     assert X[0, 0] == pytest.approx(sig.lower[0]) and X[0, 49] == pytest.approx(sig.lower[-1])
     assert X[0, 50] == pytest.approx(sig.upper[0]) and X[0, 99] == pytest.approx(sig.upper[-1])
     assert X[0, 100] == pytest.approx(sig.bulge_lower)
+    assert plugins.get_descriptor("signature").transform(records[:1]).shape == (1, 22)
+
+
+def test_signature_floor_keeps_a_nearly_flat_line_flat():
+    """A line wobbling by 2% of its level is stretched to +-1 without a floor (the thesis'
+    normalisation) but stays within +-0.6 under the default 5% floor; a clear curve reaches
+    +-1 either way."""
+    from tactile_bullet.descriptors import SignatureDescriptor
+    from tactile_bullet.signature import enhance
+
+    wobble = 100.0 + 2.0 * np.sin(np.linspace(0.0, 3.0 * np.pi, 200))
+    assert np.abs(enhance(wobble, floor=0.0)[0]).max() == pytest.approx(1.0)
+    assert np.abs(enhance(wobble, floor=SignatureDescriptor().floor)[0]).max() < 0.6
+    curve = 100.0 + 20.0 * np.sin(np.linspace(0.0, np.pi, 200))
+    assert np.abs(enhance(curve, floor=SignatureDescriptor().floor)[0]).max() == pytest.approx(1.0)
+    for bad in (-0.1, 1.5, "x", True):
+        with pytest.raises(UsageError, match="floor"):
+            plugins.get_descriptor("signature", floor=bad)
 
 
 def test_signature_points_alpha_and_level_change_the_layout(records):
@@ -42,7 +60,7 @@ def test_signature_points_alpha_and_level_change_the_layout(records):
     X = desc.transform(records[:2])
     assert X.shape == (2, 24)
     assert desc.feature_names()[-2:] == ["alpha_lower_deg", "alpha_upper_deg"]
-    sig = signature_of(records[0])
+    sig = signature_of(records[0], floor=desc.floor)
     assert X[0, -2:] == pytest.approx([sig.alpha_lower, sig.alpha_upper])
     sized = plugins.get_descriptor("signature", points=10, alpha=True, level=True)
     assert sized.feature_names()[-1] == "level_upper"

@@ -200,6 +200,7 @@ def test_combination_parameters_reach_the_right_part():
         "signature.points": 10,
         "signature.alpha": False,
         "signature.level": False,
+        "signature.floor": 0.05,
         "raw-joints.include_thumb": True,
     }
     again = plugins.get_descriptor(desc.name, **desc.params)

@@ -75,7 +75,7 @@ class DTWTemplateClassifier(ClassifierMixin, BaseEstimator):
     required_descriptor = "signature"
     """The only descriptor whose columns this classifier understands."""
 
-    def __init__(self, points=50, temperature=1.0, integral_rule=True):
+    def __init__(self, points=10, temperature=1.0, integral_rule=True):
         self.points = points
         self.temperature = temperature
         self.integral_rule = integral_rule

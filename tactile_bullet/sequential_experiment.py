@@ -54,11 +54,13 @@ def load_data(args: argparse.Namespace) -> tuple[np.ndarray, np.ndarray, list[st
             "give --data DIR (e.g. from `tactile-bullet generate --preset sequential`) or "
             "--synthetic"
         )
+    from .cli.train import estimator_params
     from .dataset import load_dataset
     from .plugins import get_descriptor
 
+    params = estimator_params(getattr(args, "descriptor_param", None), "--descriptor-param")
     records = list(load_dataset(args.data).records(full=False))
-    X = get_descriptor(args.descriptor).transform(records)
+    X = get_descriptor(args.descriptor, **params).transform(records)
     names = [class_name(r) for r in records]
     classes = sorted(set(names))
     return np.asarray(X, float), np.array([classes.index(n) for n in names]), classes

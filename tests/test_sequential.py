@@ -29,3 +29,9 @@ def test_experiment_writes_its_three_figures(tmp_path):
 def test_without_data_it_says_what_to_give(capsys):
     assert main(["sequential"]) == 2
     assert "--data DIR" in capsys.readouterr().err
+
+
+def test_a_malformed_descriptor_parameter_is_refused_before_any_work(tmp_path, capsys):
+    code = main(["sequential", "--data", str(tmp_path), "--descriptor-param", "points"])
+    assert code == 2
+    assert "--descriptor-param" in capsys.readouterr().err

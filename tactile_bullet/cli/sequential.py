@@ -20,6 +20,10 @@ def add_parser(sub) -> None:
         "--descriptor", default="signature+contact-normals",
         help="unimodal (signature, raw-joints, contact-normals) or multimodal (a+b)",
     )  # fmt: skip
+    parser.add_argument(
+        "--descriptor-param", action="append", metavar="KEY=VALUE",
+        help="descriptor parameter (repeatable), e.g. points=50",
+    )  # fmt: skip
     parser.add_argument("--timing", action="store_true", help="print cost figures only")
     parser.add_argument("--orders", type=int, default=10, help="random orders of the classes")
     parser.add_argument("--n-updates", type=int, default=300, help="updates per new forest")

@@ -279,19 +279,47 @@ class Thresholds:
 
 
 @cache
-def load_thresholds() -> Thresholds:
-    """Thresholds measured by ``tools/invariance.py`` (package data), or the defaults."""
+def _identification_data() -> dict:
+    """``data/identification.json`` as written by ``tools/invariance.py`` ({} when absent)."""
     try:
         text = resources.files("tactile_bullet").joinpath("data/identification.json").read_text()
     except (FileNotFoundError, OSError):
+        return {}
+    return json.loads(text)
+
+
+def load_thresholds() -> Thresholds:
+    """Thresholds measured by ``tools/invariance.py`` (package data), or the defaults."""
+    doc = _identification_data()
+    if not doc:
         return Thresholds()
-    doc = json.loads(text)
     return Thresholds(
         correspondence=float(doc["correspondence_threshold"]),
         integral=float(doc["integral_threshold"]),
         integral_line=str(doc.get("integral_line", "upper")),
         source="data/identification.json",
     )
+
+
+def identification_ranges() -> dict[str, dict[str, tuple[float, float]]]:
+    """Per thesis shape, the sizes (m, per parameter) inside which training-free identification
+    held for at least 90% of the grasps over ``tools/invariance.py``'s grid of offsets: the
+    analogue of thesis Table 2.2. Kept beside the shapes' valid ranges rather than written
+    over them, because for the sphere and cylinder it is a single size, and every other
+    feature (training, the demo) needs the full ranges. Shapes without such sizes are absent."""
+    ranges = _identification_data().get("identification_ranges", {})
+    return {
+        shape: {k: (float(lo), float(hi)) for k, (lo, hi) in params.items()}
+        for shape, params in ranges.items()
+    }
+
+
+def in_identification_range(shape: str, params: Mapping[str, float]) -> bool:
+    """Whether sizes ``params`` of ``shape`` lie where training-free identification holds."""
+    ranges = identification_ranges().get(shape)
+    if not ranges:
+        return False
+    return all(lo - 1e-9 <= float(params[k]) <= hi + 1e-9 for k, (lo, hi) in ranges.items())
 
 
 @dataclass(frozen=True)
@@ -352,4 +380,5 @@ def signature_summary(record) -> dict:
         "rotation_estimate_deg": estimate_rotation_deg(alpha, cal, ident.nearest),
         "nearest_pattern": ident.name,
         "distances": ident.distances,
+        "in_identification_range": in_identification_range(record.shape, record.params),
     }

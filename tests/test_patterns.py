@@ -142,7 +142,36 @@ def test_signature_summary_has_the_grasp_json_fields(grasps):
     from tactile_bullet.patterns import signature_summary
 
     summary = signature_summary(grasps["cone"][0])
-    assert set(summary) == {"alpha_deg", "rotation_estimate_deg", "nearest_pattern", "distances"}
+    assert set(summary) == {
+        "alpha_deg", "rotation_estimate_deg", "nearest_pattern", "distances",
+        "in_identification_range",
+    }  # fmt: skip
     assert set(summary["distances"]) == set(default_library())
     assert summary["nearest_pattern"] in {*default_library(), "unknown"}
+    # the cone of radius 40 mm, length 140 mm lies where identification held; the
+    # cylinder of 25 mm does not (tools/invariance.py: only the 20 mm cylinder)
+    assert summary["in_identification_range"] is True
+    assert signature_summary(grasps["cylinder"][0])["in_identification_range"] is False
     json.dumps(summary)  # plain floats and strings only
+
+
+def test_identification_ranges_lie_inside_the_valid_ranges(capsys):
+    """tools/invariance.py's analogue of thesis Table 2.2, shipped as package data and shown
+    by `tactile-bullet shapes`: every range is a sub-range of the shape's valid one."""
+    import json
+
+    from tactile_bullet.cli import main
+    from tactile_bullet.patterns import identification_ranges
+
+    ranges = identification_ranges()
+    assert set(ranges) <= set(default_library()) and ranges
+    assert main(["shapes", "--json"]) == 0
+    listed = {d["name"]: d["params"] for d in json.loads(capsys.readouterr().out)}
+    for shape, params in ranges.items():
+        assert set(params) == set(listed[shape])
+        for key, (lo, hi) in params.items():
+            p = listed[shape][key]
+            assert p["min"] - 1e-9 <= lo <= hi <= p["max"] + 1e-9
+            assert p["identification_range"] == [lo, hi]
+    assert main(["shapes"]) == 0
+    assert "identified without training in" in capsys.readouterr().out

@@ -255,6 +255,13 @@ def markdown(report: dict) -> str:
         + "); "
         f"correspondence threshold: {report['thresholds']['correspondence_threshold']:.2f}.",
         "",
+        f"Inside the sizes where identification holds it names {report['rate_in_those_sizes']:.0%} "
+        "of the grasps. Those sizes ship with the package (`tactile_bullet/data/"
+        "identification.json`): `tactile-bullet shapes` prints them beside each parameter's "
+        "valid range, and `grasp --json` says whether a grasp lies inside them "
+        "(`signature.in_identification_range`). They are not written over the valid ranges: "
+        "for the sphere and the cylinder they are a single size, and training needs the rest.",
+        "",
         "| shape | rate | by size fraction (0 .. 1) | sizes where identification holds (>= 90%) |",
         "|---|---|---|---|",
     ]
@@ -345,6 +352,11 @@ def main() -> None:
         "integral_line": thresholds["integral_line"],
         "generated_by": "tools/invariance.py",
         "grasps": n,
+        "identification_ranges": {
+            k: v["sizes_where_identification_holds"]
+            for k, v in shapes.items()
+            if v["sizes_where_identification_holds"]
+        },
     }
     path = ROOT / "tactile_bullet" / "data" / "identification.json"
     path.parent.mkdir(parents=True, exist_ok=True)

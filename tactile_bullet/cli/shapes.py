@@ -19,14 +19,30 @@ def _all_shapes():
     return [get_shape(n) for n in shape_names()]
 
 
+def _entry(shape, ranges: dict) -> dict:
+    """``describe()`` plus, per parameter, where training-free identification holds."""
+    doc = shape.describe()
+    for key, (lo, hi) in ranges.get(shape.name, {}).items():
+        doc["params"][key]["identification_range"] = [lo, hi]
+    return doc
+
+
 def run(args: argparse.Namespace) -> int:
-    shapes = _all_shapes()
+    from ..patterns import identification_ranges
+
+    ranges = identification_ranges()
+    docs = [_entry(s, ranges) for s in _all_shapes()]
     if args.json:
-        emit_json([s.describe() for s in shapes])
+        emit_json(docs)
         return 0
-    for shape in shapes:
-        tag = "" if shape.thesis else "  (modified shape)"
-        print(f"{shape.name}{tag}: {shape.doc}")
-        for key, p in shape.params.items():
-            print(f"    {key:<14} default {p.default:<7g} range [{p.min:g}, {p.max:g}] {p.unit}")
+    for doc in docs:
+        tag = "" if doc["thesis"] else "  (modified shape)"
+        print(f"{doc['name']}{tag}: {doc['doc']}")
+        for key, p in doc["params"].items():
+            held = p.get("identification_range")
+            note = f"  identified without training in [{held[0]:g}, {held[1]:g}]" if held else ""
+            print(
+                f"    {key:<14} default {p['default']:<7g} range [{p['min']:g}, {p['max']:g}] "
+                f"{p['unit']}{note}"
+            )
     return 0

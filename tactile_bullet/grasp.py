@@ -171,14 +171,29 @@ def _run(scene, spec, values, pose, ctl, seed, scene_hook) -> GraspRecord:
               forces=forces[movable].tolist())  # fmt: skip
     sample()
 
-    # Phase 1: thumb to opposition, stopping on the object if it meets it first.
+    # Phase 1: thumb to opposition, stopping on the object if it meets it first. The object
+    # is static, so the part of the thumb's sweep that stays clear of it is skipped: the thumb
+    # starts from the last pose of its path that keeps THUMB_SWEEP_CLEARANCE (a pre-grasp
+    # posture), and is driven from there; moving it through free space only cost steps.
     thumb = [JOINT_NAMES.index(nm) for nm in THUMB_OPPOSED]
     thumb_ids = ids[thumb].tolist()
     goal = np.array(list(THUMB_OPPOSED.values()))
     forces[thumb] = (5.0, 3.0, 2.0, 2.0, 1.0)
     n_thumb = int(math.ceil(np.abs(goal).max() / (THUMB_SPEED_RATIO * delta)))
+    first = int(math.floor(thumb_sweep_clear_fraction(scene, thumb_ids, goal) * n_thumb))
+    if first:
+        start = goal * (first / n_thumb)
+        for j, angle in zip(thumb_ids, start, strict=True):
+            c.resetJointState(hand, j, float(angle), 0.0)
+        targets[thumb] = start
+        setmotors(hand, thumb_ids, p.POSITION_CONTROL, targetPositions=start.tolist(),
+                  forces=forces[thumb].tolist())  # fmt: skip
+        angle_rows.clear()
+        effort_rows.clear()
+        times.clear()
+        sample()
     thumb_link_ids = set(scene.finger_link_ids["th"])
-    for k in range(1, n_thumb + 1):
+    for k in range(first + 1, n_thumb + 1):
         states = getstates(hand, thumb_ids)
         if torque_mode:
             stop = max(external(states, thumb)) > thres
@@ -296,6 +311,35 @@ def _run(scene, spec, values, pose, ctl, seed, scene_hook) -> GraspRecord:
         flags=tuple(flags),
         steps=step,
     )
+
+
+THUMB_SWEEP_CLEARANCE = 0.005
+"""Gap (m) the thumb's links keep from the object over the part of its sweep that is skipped."""
+THUMB_SWEEP_POSES = 48
+"""Poses checked along the sweep: about 3 mm of thumb-tip travel between two of them, under
+the clearance, so no contact can be skipped between two checked poses."""
+
+
+def thumb_sweep_clear_fraction(scene: Scene, thumb_ids: list[int], goal: np.ndarray) -> float:
+    """The fraction of the thumb's sweep from open to ``goal`` (joint-space straight line)
+    over which every thumb link keeps ``THUMB_SWEEP_CLEARANCE`` from the object: 1.0 when
+    the whole sweep is free. Collision queries only, no dynamics; leaves the thumb open."""
+    c, hand = scene.client, scene.hand
+    links = scene.finger_link_ids["th"]
+    clear = 0
+    for k in range(1, THUMB_SWEEP_POSES + 1):
+        for j, angle in zip(thumb_ids, goal * (k / THUMB_SWEEP_POSES), strict=True):
+            c.resetJointState(hand, j, float(angle), 0.0)
+        if any(
+            c.getClosestPoints(hand, body, THUMB_SWEEP_CLEARANCE, linkIndexA=link)
+            for body in scene.objects
+            for link in links
+        ):
+            break
+        clear = k
+    for j in thumb_ids:
+        c.resetJointState(hand, j, 0.0, 0.0)
+    return clear / THUMB_SWEEP_POSES
 
 
 def timed_grasp(*args, **kwargs) -> tuple[GraspRecord, float]:

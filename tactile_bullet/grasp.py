@@ -171,23 +171,28 @@ def _run(scene, spec, values, pose, ctl, seed, scene_hook) -> GraspRecord:
               forces=forces[movable].tolist())  # fmt: skip
     sample()
 
-    # Phase 1: thumb to opposition, stopping on the object if it meets it first. The object
-    # is static, so the part of the thumb's sweep that stays clear of it is skipped: the thumb
-    # starts from the last pose of its path that keeps THUMB_SWEEP_CLEARANCE (a pre-grasp
-    # posture), and is driven from there; moving it through free space only cost steps.
+    # Phase 1: thumb to opposition, stopping on the object if it meets it first.
     thumb = [JOINT_NAMES.index(nm) for nm in THUMB_OPPOSED]
     thumb_ids = ids[thumb].tolist()
     goal = np.array(list(THUMB_OPPOSED.values()))
     forces[thumb] = (5.0, 3.0, 2.0, 2.0, 1.0)
     n_thumb = int(math.ceil(np.abs(goal).max() / (THUMB_SPEED_RATIO * delta)))
-    first = int(math.floor(thumb_sweep_clear_fraction(scene, thumb_ids, goal) * n_thumb))
-    if first:
-        start = goal * (first / n_thumb)
-        for j, angle in zip(thumb_ids, start, strict=True):
-            c.resetJointState(hand, j, float(angle), 0.0)
-        targets[thumb] = start
-        setmotors(hand, thumb_ids, p.POSITION_CONTROL, targetPositions=start.tolist(),
-                  forces=forces[thumb].tolist())  # fmt: skip
+    first = 0
+    if ctl.preshape:
+        # The object is static, so the free part of each sweep is skipped: the thumb starts
+        # from the last pose of its path, and each finger's J3 from the last angle, that keeps
+        # SWEEP_CLEARANCE from the object; only free-space travel is left out.
+        links = scene.finger_link_ids
+        first = int(math.floor(sweep_clear_fraction(scene, thumb_ids, goal, links["th"]) * n_thumb))
+        targets[thumb] = goal * (first / n_thumb)
+        for f in fingers:
+            j3 = int(ids[f.j3])
+            top = np.array([upper[f.j3]])
+            f.t3 = targets[f.j3] = sweep_clear_fraction(scene, [j3], top, links[f.name]) * top[0]
+        for col in [*thumb, *(f.j3 for f in fingers)]:
+            c.resetJointState(hand, int(ids[col]), float(targets[col]), 0.0)
+        setmotors(hand, joints, p.POSITION_CONTROL, targetPositions=targets[movable].tolist(),
+                  forces=forces[movable].tolist())  # fmt: skip
         angle_rows.clear()
         effort_rows.clear()
         times.clear()
@@ -313,33 +318,35 @@ def _run(scene, spec, values, pose, ctl, seed, scene_hook) -> GraspRecord:
     )
 
 
-THUMB_SWEEP_CLEARANCE = 0.005
-"""Gap (m) the thumb's links keep from the object over the part of its sweep that is skipped."""
-THUMB_SWEEP_POSES = 48
-"""Poses checked along the sweep: about 3 mm of thumb-tip travel between two of them, under
-the clearance, so no contact can be skipped between two checked poses."""
+SWEEP_CLEARANCE = 0.005
+"""Gap (m) a finger's links keep from the object over the part of its sweep that
+``ControllerSettings.preshape`` skips: it still closes the last 5 mm under control."""
+SWEEP_POSES = 48
+"""Poses checked along a sweep: at most ~3.5 mm of fingertip travel between two of them,
+under the clearance, so no contact can be missed between two checked poses."""
 
 
-def thumb_sweep_clear_fraction(scene: Scene, thumb_ids: list[int], goal: np.ndarray) -> float:
-    """The fraction of the thumb's sweep from open to ``goal`` (joint-space straight line)
-    over which every thumb link keeps ``THUMB_SWEEP_CLEARANCE`` from the object: 1.0 when
-    the whole sweep is free. Collision queries only, no dynamics; leaves the thumb open."""
+def sweep_clear_fraction(
+    scene: Scene, joint_ids: list[int], goal: np.ndarray, links: list[int]
+) -> float:
+    """The fraction of the straight joint-space sweep from 0 to ``goal`` of ``joint_ids`` over
+    which ``links`` keep ``SWEEP_CLEARANCE`` from the object: 1.0 when the whole sweep is free.
+    Collision queries only, no dynamics; the joints are left at 0."""
     c, hand = scene.client, scene.hand
-    links = scene.finger_link_ids["th"]
     clear = 0
-    for k in range(1, THUMB_SWEEP_POSES + 1):
-        for j, angle in zip(thumb_ids, goal * (k / THUMB_SWEEP_POSES), strict=True):
+    for k in range(1, SWEEP_POSES + 1):
+        for j, angle in zip(joint_ids, goal * (k / SWEEP_POSES), strict=True):
             c.resetJointState(hand, j, float(angle), 0.0)
         if any(
-            c.getClosestPoints(hand, body, THUMB_SWEEP_CLEARANCE, linkIndexA=link)
+            c.getClosestPoints(hand, body, SWEEP_CLEARANCE, linkIndexA=link)
             for body in scene.objects
             for link in links
         ):
             break
         clear = k
-    for j in thumb_ids:
+    for j in joint_ids:
         c.resetJointState(hand, j, 0.0, 0.0)
-    return clear / THUMB_SWEEP_POSES
+    return clear / SWEEP_POSES
 
 
 def timed_grasp(*args, **kwargs) -> tuple[GraspRecord, float]:

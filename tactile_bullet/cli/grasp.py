@@ -37,6 +37,11 @@ def add_parser(sub) -> None:
     parser.add_argument("--delta", type=float, help="joint step per control tick (rad)")
     parser.add_argument("--thres", type=float, help="torque threshold thresT (N m)")
     parser.add_argument("--max-time", type=float, help="simulated time limit (s)")
+    parser.add_argument(
+        "--no-preshape", action="store_true",
+        help="drive the thumb and fingers from the open hand through free space (slower; "
+        "the time series then hold the whole approach)",
+    )  # fmt: skip
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--out", help="write the GraspRecord to this .npz file")
     parser.add_argument("--snapshot", help="render the grasp to this PNG (CPU renderer)")
@@ -49,7 +54,7 @@ def add_parser(sub) -> None:
 def _controller(args):
     from ..records import ControllerSettings
 
-    overrides = {"mode": args.mode}
+    overrides = {"mode": args.mode, "preshape": not args.no_preshape}
     for key, value in (("delta", args.delta), ("thres_t", args.thres), ("max_time", args.max_time)):
         if value is not None:
             overrides[key] = value

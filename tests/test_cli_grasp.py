@@ -1,0 +1,82 @@
+"""`tactile-bullet grasp`: one simulated grasp from the command line, its outputs and its
+refusals (exit 2, one line on stderr, no traceback, nothing written)."""
+
+from __future__ import annotations
+
+import json
+
+import pytest
+
+from tactile_bullet.cli import main
+from tactile_bullet.hand import LONG_FINGERS
+from tactile_bullet.records import load_record
+
+
+def run_error(capsys, argv) -> str:
+    code = main(argv)
+    _, err = capsys.readouterr()
+    assert code == 2
+    assert err.count("\n") == 1 and "Traceback" not in err
+    return err
+
+
+def test_json_summary_and_every_output_file(tmp_path, capsys):
+    rec, png, plot = tmp_path / "rec.npz", tmp_path / "grasp.png", tmp_path / "sig.png"
+    argv = ["grasp", "--shape", "cylinder", "--param", "radius=0.03", "--offset", "0.005,0,0",
+            "--out", str(rec), "--snapshot", str(png), "--plot", str(plot), "--json"]  # fmt: skip
+    assert main(argv) == 0
+    doc = json.loads(capsys.readouterr().out)
+    assert doc["shape"] == "cylinder" and doc["params"]["radius"] == 0.03
+    assert doc["pose"]["offset"] == [0.005, 0.0, 0.0] and doc["mode"] == "torque"
+    assert set(LONG_FINGERS) <= set(doc["fingers_in_contact"])
+    assert {"FFJ3", "LFJ1", "THJ4"} <= set(doc["joint_angles"])
+    assert doc["steps"] > 0 and doc["sim_time_s"] > 0 and doc["wall_time_s"] > 0
+    assert {"alpha_deg", "nearest_pattern", "distances"} <= set(doc["signature"])
+    record = load_record(rec)
+    assert record.steps == doc["steps"] and record.controller.preshape
+    for path in (png, plot):
+        assert path.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+def test_no_preshape_drives_from_the_open_hand(tmp_path, capsys):
+    rec = tmp_path / "rec.npz"
+    argv = ["grasp", "--shape", "sphere", "--no-preshape", "--mode", "contact", "--out", str(rec)]
+    assert main(argv) == 0
+    out = capsys.readouterr().out
+    assert "fingers in contact:" in out and "wall time" in out
+    record = load_record(rec)
+    assert not record.controller.preshape and record.controller.mode == "contact"
+    assert record.angles[0].max() == 0.0  # the open hand
+
+
+@pytest.mark.parametrize(
+    ("args", "message"),
+    [
+        (["--shape", "teapot"], "teapot"),
+        (["--shape", "sphere", "--param", "radius=-0.04"], "radius"),
+        (["--shape", "sphere", "--param", "radius=0.5"], "radius"),
+        (["--shape", "sphere", "--param", "colour=3"], "colour"),
+        (["--shape", "sphere", "--offset", "0.01,0"], "--offset"),
+        (["--shape", "sphere", "--offset", "a,b,c"], "--offset"),
+        (["--shape", "sphere", "--rotation", "120"], "--rotation"),
+        (["--shape", "sphere", "--offset", "0,0.05,0"], "inside the open hand"),
+        (["--shape", "sphere", "--delta", "-1"], "delta"),
+    ],
+)
+def test_bad_input_is_one_line_and_exit_2(capsys, args, message):
+    assert message in run_error(capsys, ["grasp", *args])
+
+
+def test_unwritable_output_is_refused_before_simulating(tmp_path, capsys):
+    kept = tmp_path / "kept.npz"
+    kept.write_bytes(b"earlier work")
+    blocker = tmp_path / "file"
+    blocker.write_text("not a folder")
+    err = run_error(capsys, ["grasp", "--shape", "sphere", "--out", str(blocker / "rec.npz")])
+    assert "--out" in err
+    assert kept.read_bytes() == b"earlier work"
+
+
+def test_gui_without_a_display_is_a_clear_error(monkeypatch, capsys):
+    monkeypatch.delenv("DISPLAY", raising=False)
+    assert "display" in run_error(capsys, ["grasp", "--shape", "sphere", "--gui"])

@@ -177,19 +177,22 @@ def _run(scene, spec, values, pose, ctl, seed, scene_hook) -> GraspRecord:
     goal = np.array(list(THUMB_OPPOSED.values()))
     forces[thumb] = (5.0, 3.0, 2.0, 2.0, 1.0)
     n_thumb = int(math.ceil(np.abs(goal).max() / (THUMB_SPEED_RATIO * delta)))
-    first = 0
+    # The object is static, so the free part of the thumb's sweep is skipped: it starts from
+    # the last pose of its path that keeps SWEEP_CLEARANCE from the object (the long fingers'
+    # final angles are unchanged by this, to 0.005 deg). With `preshape` each finger's J3
+    # starts the same way.
+    links = scene.finger_link_ids
+    first = int(math.floor(sweep_clear_fraction(scene, thumb_ids, goal, links["th"]) * n_thumb))
+    targets[thumb] = goal * (first / n_thumb)
+    moved = list(thumb)
     if ctl.preshape:
-        # The object is static, so the free part of each sweep is skipped: the thumb starts
-        # from the last pose of its path, and each finger's J3 from the last angle, that keeps
-        # SWEEP_CLEARANCE from the object; only free-space travel is left out.
-        links = scene.finger_link_ids
-        first = int(math.floor(sweep_clear_fraction(scene, thumb_ids, goal, links["th"]) * n_thumb))
-        targets[thumb] = goal * (first / n_thumb)
         for f in fingers:
             j3 = int(ids[f.j3])
             top = np.array([upper[f.j3]])
             f.t3 = targets[f.j3] = sweep_clear_fraction(scene, [j3], top, links[f.name]) * top[0]
-        for col in [*thumb, *(f.j3 for f in fingers)]:
+            moved.append(f.j3)
+    if first or ctl.preshape:
+        for col in moved:
             c.resetJointState(hand, int(ids[col]), float(targets[col]), 0.0)
         setmotors(hand, joints, p.POSITION_CONTROL, targetPositions=targets[movable].tolist(),
                   forces=forces[movable].tolist())  # fmt: skip

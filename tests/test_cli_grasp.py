@@ -33,20 +33,21 @@ def test_json_summary_and_every_output_file(tmp_path, capsys):
     assert doc["steps"] > 0 and doc["sim_time_s"] > 0 and doc["wall_time_s"] > 0
     assert {"alpha_deg", "nearest_pattern", "distances"} <= set(doc["signature"])
     record = load_record(rec)
-    assert record.steps == doc["steps"] and record.controller.preshape
+    assert record.steps == doc["steps"] and not record.controller.preshape
     for path in (png, plot):
         assert path.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
 
 
-def test_no_preshape_drives_from_the_open_hand(tmp_path, capsys):
+def test_preshape_flag_starts_the_fingers_bent(tmp_path, capsys):
     rec = tmp_path / "rec.npz"
-    argv = ["grasp", "--shape", "sphere", "--no-preshape", "--mode", "contact", "--out", str(rec)]
+    argv = ["grasp", "--shape", "sphere", "--preshape", "--mode", "contact", "--out", str(rec)]
     assert main(argv) == 0
     out = capsys.readouterr().out
     assert "fingers in contact:" in out and "wall time" in out
     record = load_record(rec)
-    assert not record.controller.preshape and record.controller.mode == "contact"
-    assert record.angles[0].max() == 0.0  # the open hand
+    assert record.controller.preshape and record.controller.mode == "contact"
+    j3 = [record.joint_names.index(f"{f.upper()}J3") for f in LONG_FINGERS]
+    assert min(record.angles[0, j3]) > 0.1
 
 
 @pytest.mark.parametrize(

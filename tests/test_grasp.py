@@ -142,14 +142,23 @@ def test_preshape_skips_only_free_space(shape):
     """Starting the fingers where their sweep comes within 5 mm of the object leaves the final
     configuration where driving them from the open hand puts it (within 3 deg per joint in
     torque mode), in fewer steps; the fingers start bent but still touch at the end."""
-    pre = simulate_grasp(shape)
-    full = simulate_grasp(shape, controller=ControllerSettings(preshape=False))
+    pre = simulate_grasp(shape, controller=ControllerSettings(preshape=True))
+    full = simulate_grasp(shape)
     assert pre.controller.preshape and not full.controller.preshape
-    assert pre.steps < 0.85 * full.steps
+    assert pre.steps < 0.9 * full.steps
     assert np.degrees(np.abs(pre.fci_angles() - full.fci_angles())).max() < 3.0
     j3 = [pre.joint_names.index(f"{f.upper()}J3") for f in LONG_FINGERS]
     assert np.all(pre.angles[0, j3] > 0.1) and np.all(full.angles[0, j3] == 0.0)
     assert set(LONG_FINGERS) <= set(pre.fingers_in_contact)
+
+
+def test_thumb_starts_clear_of_the_object_and_ends_on_it():
+    """The thumb skips the free part of its sweep (it starts partly opposed, never touching)
+    and is still driven onto the object."""
+    record = simulate_grasp("sphere", {"radius": 0.05})
+    th4 = record.joint_names.index("THJ4")
+    assert 0.0 < record.angles[0, th4] < record.final_angles[th4]
+    assert "th" in record.fingers_in_contact
 
 
 def test_records_saved_before_preshape_load_as_driven_from_the_open_hand(tmp_path):
@@ -157,7 +166,7 @@ def test_records_saved_before_preshape_load_as_driven_from_the_open_hand(tmp_pat
 
     from tactile_bullet.records import record_from_parts
 
-    record = simulate_grasp("cylinder", controller=ControllerSettings(preshape=False))
+    record = simulate_grasp("cylinder", controller=ControllerSettings(preshape=True))
     meta = json.loads(json.dumps(record.metadata()))
     del meta["controller"]["preshape"]
     assert record_from_parts(meta, record.arrays()).controller.preshape is False

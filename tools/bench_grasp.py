@@ -10,7 +10,7 @@ For each shape and controller mode, on one core (this process):
 - peak RSS of this process.
 
     python tools/bench_grasp.py [--repeat 3] [--shapes cone,sphere] [--modes torque]
-    python tools/bench_grasp.py --no-preshape   # every joint driven from the open hand
+    python tools/bench_grasp.py --preshape   # fingers start 5 mm from the object (opt-in)
 """
 
 from __future__ import annotations
@@ -37,7 +37,7 @@ def bare_step_rate(scene) -> float:
     return CEILING_STEPS / (time.perf_counter() - start)
 
 
-def bench(shape, mode: str, repeat: int, preshape: bool = True) -> dict:
+def bench(shape, mode: str, repeat: int, preshape: bool = False) -> dict:
     ctl = ControllerSettings(mode=mode, preshape=preshape)
     walls, rates = [], []
     record = None
@@ -66,8 +66,8 @@ def main() -> None:
     parser.add_argument("--shapes", default=",".join(s.name for s in BUILTIN_SHAPES))
     parser.add_argument("--modes", default="torque,contact")
     parser.add_argument(
-        "--no-preshape", action="store_true",
-        help="drive the fingers from the open hand (the speed-up of preshape is the ratio)",
+        "--preshape", action="store_true",
+        help="start the fingers 5 mm from the object (ControllerSettings.preshape)",
     )  # fmt: skip
     args = parser.parse_args()
     table = {s.name: s for s in BUILTIN_SHAPES}
@@ -76,7 +76,7 @@ def main() -> None:
           f"{'ceiling':>9}{'ratio':>7}  fingers")  # fmt: skip
     for name in args.shapes.split(","):
         for mode in args.modes.split(","):
-            row = bench(table[name], mode, args.repeat, not args.no_preshape)
+            row = bench(table[name], mode, args.repeat, args.preshape)
             rows.append(row)
             print(f"{row['shape']:<18}{row['mode']:<8}{row['grasps_per_s']:>9.2f}{row['steps']:>7}"
                   f"{row['bare_steps_per_s']:>10.0f}{row['ceiling_grasps_per_s']:>9.2f}"

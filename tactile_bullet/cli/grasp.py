@@ -38,9 +38,9 @@ def add_parser(sub) -> None:
     parser.add_argument("--thres", type=float, help="torque threshold thresT (N m)")
     parser.add_argument("--max-time", type=float, help="simulated time limit (s)")
     parser.add_argument(
-        "--no-preshape", action="store_true",
-        help="drive the thumb and fingers from the open hand through free space (slower; "
-        "the time series then hold the whole approach)",
+        "--preshape", action="store_true",
+        help="start each finger where its sweep comes within 5 mm of the object (1.2x faster, "
+        "final angles within ~2.5 deg)",
     )  # fmt: skip
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--out", help="write the GraspRecord to this .npz file")
@@ -54,7 +54,7 @@ def add_parser(sub) -> None:
 def _controller(args):
     from ..records import ControllerSettings
 
-    overrides = {"mode": args.mode, "preshape": not args.no_preshape}
+    overrides = {"mode": args.mode, "preshape": args.preshape}
     for key, value in (("delta", args.delta), ("thres_t", args.thres), ("max_time", args.max_time)):
         if value is not None:
             overrides[key] = value

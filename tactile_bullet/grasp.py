@@ -200,7 +200,7 @@ def _run(scene, spec, values, pose, ctl, seed, scene_hook) -> GraspRecord:
         effort_rows.clear()
         times.clear()
         sample()
-    thumb_link_ids = set(scene.finger_link_ids["th"])
+    thumb_link_ids = set(links["th"])
     for k in range(first + 1, n_thumb + 1):
         states = getstates(hand, thumb_ids)
         if torque_mode:

@@ -54,11 +54,11 @@ def load_data(args: argparse.Namespace) -> tuple[np.ndarray, np.ndarray, list[st
             "give --data DIR (e.g. from `tactile-bullet generate --preset sequential`) or "
             "--synthetic"
         )
-    from .cli.train import estimator_params
+    from .cli.common import estimator_params
     from .dataset import load_dataset
     from .plugins import get_descriptor
 
-    params = estimator_params(getattr(args, "descriptor_param", None), "--descriptor-param")
+    params = estimator_params(args.descriptor_param, "--descriptor-param")
     records = list(load_dataset(args.data).records(full=False))
     X = get_descriptor(args.descriptor, **params).transform(records)
     names = [class_name(r) for r in records]

@@ -6,18 +6,11 @@ from __future__ import annotations
 import json
 
 import pytest
+from cli_helpers import run_error
 
 from tactile_bullet.cli import main
 from tactile_bullet.hand import LONG_FINGERS
 from tactile_bullet.records import load_record
-
-
-def run_error(capsys, argv) -> str:
-    code = main(argv)
-    _, err = capsys.readouterr()
-    assert code == 2
-    assert err.count("\n") == 1 and "Traceback" not in err
-    return err
 
 
 def test_json_summary_and_every_output_file(tmp_path, capsys):

@@ -9,6 +9,7 @@ import sys
 
 import numpy as np
 import pytest
+from cli_helpers import run_error
 from test_workflow import synthetic_set
 
 from tactile_bullet.cli import main
@@ -44,14 +45,6 @@ def run_json(capsys, argv):
     out, err = capsys.readouterr()
     assert code == 0, err
     return json.loads(out)
-
-
-def run_error(capsys, argv) -> str:
-    code = main(argv)
-    out, err = capsys.readouterr()
-    assert code == 2
-    assert err.count("\n") == 1 and "Traceback" not in err
-    return err
 
 
 def test_train_json_names_the_model(folders, capsys, tmp_path):

@@ -20,6 +20,8 @@ from sklearn.base import BaseEstimator, ClassifierMixin
 from sklearn.utils.multiclass import check_classification_targets
 from sklearn.utils.validation import check_is_fitted, validate_data
 
+from ..descriptors import SIGNATURE_LINE_POINTS
+
 _GENERIC_FIT_CHECKS = (
     "check_classifier_data_not_an_array", "check_classifiers_classes",
     "check_classifiers_one_label", "check_classifiers_train", "check_dict_unchanged",
@@ -75,7 +77,7 @@ class DTWTemplateClassifier(ClassifierMixin, BaseEstimator):
     required_descriptor = "signature"
     """The only descriptor whose columns this classifier understands."""
 
-    def __init__(self, points=10, temperature=1.0, integral_rule=True):
+    def __init__(self, points=SIGNATURE_LINE_POINTS, temperature=1.0, integral_rule=True):
         self.points = points
         self.temperature = temperature
         self.integral_rule = integral_rule

@@ -66,6 +66,11 @@ def convert_value(text: str) -> Any:
     return text
 
 
+def estimator_params(items: Sequence[str] | None, what: str = "--param") -> dict[str, Any]:
+    """KEY=VALUE texts -> typed values (int, float, bool, None or string)."""
+    return {k: convert_value(v) for k, v in parse_key_values(items, what).items()}
+
+
 def writable_file(path: str | os.PathLike, what: str = "output") -> Path:
     """Check up front that ``path`` can be written, so long work is not lost at the end."""
     path = Path(path)

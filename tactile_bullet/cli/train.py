@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import argparse
 
-from .common import convert_value, emit_json, parse_key_values, writable_file
+from .common import emit_json, estimator_params, writable_file
 
 
 def add_parser(sub) -> None:
@@ -27,11 +27,6 @@ def add_parser(sub) -> None:
     parser.add_argument("--out", required=True, metavar="MODEL", help="model file to write")
     parser.add_argument("--json", action="store_true", help="print one JSON document")
     parser.set_defaults(run=run)
-
-
-def estimator_params(items: list[str] | None, what: str) -> dict:
-    """KEY=VALUE texts -> typed values (int, float, bool, None or string)."""
-    return {k: convert_value(v) for k, v in parse_key_values(items, what).items()}
 
 
 def run(args: argparse.Namespace) -> int:

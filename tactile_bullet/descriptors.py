@@ -39,20 +39,21 @@ from .hookspecs import hookimpl
 SIGNATURE_LINE_POINTS = 10
 """Default samples per signature line. The 200-column line is a cubic interpolation of four
 fingers, so it has about four degrees of freedom: 10 samples keep its shape, and unlike 50 they
-do not outweigh the two bulge columns in an RBF kernel's distance. Measured with signature +
-svm over six seeds of the demo protocol (``tools/bench_accuracy.py --seed S``, 100 held-out
-grasps each): 50 points 93.0% mean, 10 points 95.8% (both at floor 0.05, C=100). The other
-classifiers lean the other way on the same splits (neural-forest 87.8% at 50 points, 83.3% at
-10; knn 86.2% vs 82.2%; som 82.8% vs 77.7%): give them ``points=50``
-(``--descriptor-param points=50``)."""
+do not outweigh the two bulge columns in an RBF kernel's distance. Signature + svm, mean over
+six splits of the demo protocol (``python tools/bench_accuracy.py --seeds 0,1,2,3,4,5
+[--descriptor-param points=50]``): 95.8% at 10 points, 93.0% at 50. The other classifiers lean
+the other way on the same splits (``... --classifier knn --descriptor-param points=50``):
+neural-forest 87.8% at 50 points vs 83.3% at 10, knn 86.2% vs 82.2%, som 82.8% vs 77.7%, so
+give them ``--descriptor-param points=50``."""
 
 SIGNATURE_FLOOR = 0.05
 """Default flatness floor of the enhancement (``signature.enhance``): a line whose deviations
 stay under 5% of its mean level is not stretched to [-1, 1]. A cylinder's measured lines wobble
 by a few percent (the J1/J2 tendon split differs finger to finger), and the thesis' full
-normalisation turns that wobble into a hyperboloid-like curve. Same six seeds: 93.0% at 0.02,
-95.8% at 0.05 (10 points, C=100). The training-free identifier keeps
-``signature.FLAT_FLOOR`` (0.02), which suits it better (``tools/invariance.py``: 60% vs 57%).
+normalisation turns that wobble into a hyperboloid-like curve. Same six splits
+(``... --descriptor-param floor=0.02``): 95.8% at 0.05, 93.0% at 0.02. The training-free
+identifier keeps ``signature.FLAT_FLOOR`` (0.02): with 0.05 there, ``tools/invariance.py``
+identified 57% of its grid instead of 60%.
 """
 
 

@@ -187,8 +187,7 @@ def record_from_parts(meta: Mapping, arrays: Mapping[str, np.ndarray]) -> GraspR
         if int(meta["format"]) != RECORD_FORMAT:
             raise UsageError(f"record format {meta['format']} is not supported")
         pose = Pose(tuple(meta["pose"]["offset"]), meta["pose"]["rotation"])
-        # records made before `preshape` existed drove the fingers from the open hand
-        controller = ControllerSettings(**{"preshape": False, **meta["controller"]})
+        controller = ControllerSettings(**meta["controller"])
         return GraspRecord(
             shape=str(meta["shape"]),
             params={k: float(v) for k, v in meta["params"].items()},

@@ -326,30 +326,37 @@ def check_shards(folder: Path, manifest: Mapping[str, Any]) -> tuple[list[dict],
 
 
 def shard_problem(folder: Path, entry: Mapping[str, Any]) -> str:
-    """Why a listed shard's content is not what the manifest says ("" when it is): wrong
-    size, checksum mismatch, undecodable, or another number of records."""
+    """Why a listed shard's content is not what the manifest says ("" when it is): unreadable,
+    wrong size, checksum mismatch, undecodable, or another number of records."""
     try:
         data = (folder / entry["file"]).read_bytes()
     except OSError as exc:
         return f"unreadable ({exc.strerror or exc})"
-    return _content_problem(entry, data)[0]
+    return _bytes_problem(entry, data) or _decoded_problem(entry, data, decode_shard_metadata)[0]
 
 
-def _content_problem(entry: Mapping[str, Any], data: bytes) -> tuple[str, list[dict]]:
-    """("" or why the bytes are not the listed shard, the records' metadata)."""
+def _bytes_problem(entry: Mapping[str, Any], data: bytes) -> str:
+    """Why ``data`` are not the bytes the manifest lists for the shard ("" when they are)."""
     if "bytes" in entry and len(data) != entry["bytes"]:
         cut = "truncated" if len(data) < entry["bytes"] else "grown"
-        return f"{cut} ({len(data)} bytes, the manifest lists {entry['bytes']})", []
+        return f"{cut} ({len(data)} bytes, the manifest lists {entry['bytes']})"
     if hashlib.sha256(data).hexdigest() != entry["sha256"]:
-        return "checksum mismatch (changed or damaged)", []
+        return "checksum mismatch (changed or damaged)"
+    return ""
+
+
+def _decoded_problem(
+    entry: Mapping[str, Any], data: bytes, decode: Callable[[bytes], list]
+) -> tuple[str, list]:
+    """("" or why the shard's bytes do not decode to the records listed, the decoded list)."""
     try:
-        metas = decode_shard_metadata(data)
+        decoded = decode(data)
     except _DECODE_ERRORS as exc:
         return f"undecodable ({_first_line(exc)})", []
-    if not isinstance(metas, list) or len(metas) != entry["records"]:
-        count = len(metas) if isinstance(metas, list) else "no"
+    if not isinstance(decoded, list) or len(decoded) != entry["records"]:
+        count = len(decoded) if isinstance(decoded, list) else "no"
         return f"holds {count} records, the manifest lists {entry['records']}", []
-    return "", metas
+    return "", decoded
 
 
 def _first_line(exc: BaseException) -> str:
@@ -667,13 +674,10 @@ class Dataset:
             data = (self.path / entry["file"]).read_bytes()
         except OSError as exc:
             return self._damaged(entry, f"unreadable ({exc.strerror or exc})")
-        why, _ = _content_problem(entry, data)
-        if why:
-            return self._damaged(entry, why)
-        try:
-            return decode(data)
-        except _DECODE_ERRORS as exc:
-            return self._damaged(entry, f"undecodable ({_first_line(exc)})")
+        why = _bytes_problem(entry, data)
+        if not why:
+            why, decoded = _decoded_problem(entry, data, decode)
+        return self._damaged(entry, why) if why else decoded
 
     def _damaged(self, entry: Mapping, why: str) -> list:
         problem = Problem(str(self.path / entry["file"]), why, entry["records"],

@@ -6,7 +6,7 @@ import argparse
 import sys
 
 from ..errors import UsageError
-from .common import emit_json, show_progress
+from .common import emit_json, seed_number, show_progress
 
 
 def add_parser(sub) -> None:
@@ -25,7 +25,7 @@ def add_parser(sub) -> None:
         "--classifier", metavar="X,Y", help="classifiers to compare (default: all installed)"
     )
     parser.add_argument("--test-fraction", type=float, default=0.3, help="share held out")
-    parser.add_argument("--seed", type=int, default=0, help="seed of the split")
+    parser.add_argument("--seed", type=seed_number, default=0, help="seed of the split")
     parser.add_argument("--json", action="store_true", help="print one JSON document")
     parser.set_defaults(run=run)
 

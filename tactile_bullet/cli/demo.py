@@ -6,7 +6,7 @@ import argparse
 import os
 import sys
 
-from .common import emit_json, show_progress
+from .common import MAX_WORKERS, add_force_flag, count, emit_json, seed_number, show_progress
 
 QUICK = {"train_per_shape": 4, "test_per_shape": 2}
 """A smoke-sized demo: seconds instead of minutes, for tests and a first look."""
@@ -24,10 +24,12 @@ def add_parser(sub) -> None:
         "--out", default="tactile-bullet-demo", metavar="DIR",
         help="output folder (default: ./tactile-bullet-demo)",
     )  # fmt: skip
-    parser.add_argument("--seed", type=int, default=0, help="seed of sizes and offsets")
+    parser.add_argument("--seed", type=seed_number, default=0, help="seed of sizes and offsets")
     parser.add_argument(
-        "--workers", type=int, default=min(2, os.cpu_count() or 1), help="simulation processes"
-    )
+        "--workers", type=count(1, MAX_WORKERS), default=min(2, os.cpu_count() or 1),
+        help="simulation processes",
+    )  # fmt: skip
+    add_force_flag(parser, "output of an earlier demo in --out")
     parser.add_argument("--quick", action="store_true", help="a tiny run (a few grasps per shape)")
     parser.add_argument("--json", action="store_true", help="print one JSON document")
     parser.set_defaults(run=run)
@@ -46,7 +48,10 @@ def run(args: argparse.Namespace) -> int:
         if show:
             print(message, file=sys.stderr)
 
-    doc = demo(args.out, seed=args.seed, workers=args.workers, show=show, log=log, **sizes)
+    doc = demo(
+        args.out, seed=args.seed, workers=args.workers, show=show, log=log, force=args.force,
+        **sizes,
+    )  # fmt: skip
     if args.json:
         emit_json(doc)
     else:

@@ -84,7 +84,10 @@ def join_negative_values(argv: list[str]) -> list[str]:
 
 def main(argv: list[str] | None = None) -> int:
     parser = build_parser()
-    args = parser.parse_args(join_negative_values(sys.argv[1:] if argv is None else list(argv)))
+    try:
+        args = parser.parse_args(join_negative_values(sys.argv[1:] if argv is None else list(argv)))
+    except SystemExit as exc:  # --help, --version, or bad usage (already printed, one line)
+        return exc.code if isinstance(exc.code, int) else 2
     try:
         return int(args.run(args) or 0)
     except UsageError as exc:

@@ -199,6 +199,13 @@ def show_progress(json_mode: bool) -> bool:
     return not json_mode and sys.stderr.isatty()
 
 
+def log_lines(json_mode: bool) -> bool:
+    """Plain progress lines on stderr: for a person at a terminal (no --json), and wherever
+    stderr is not a terminal (a log file, CI), so long work is never silent for minutes.
+    Only --json at a terminal stays quiet (DESIGN section 5)."""
+    return not json_mode or not sys.stderr.isatty()
+
+
 def progress(iterable: Iterable, total: int | None, desc: str, enabled: bool) -> Iterable:
     if not enabled:
         return iterable

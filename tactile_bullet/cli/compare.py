@@ -6,7 +6,7 @@ import argparse
 import sys
 
 from ..errors import UsageError
-from .common import emit_json, seed_number, show_progress
+from .common import emit_json, log_lines, seed_number
 
 
 def add_parser(sub) -> None:
@@ -48,11 +48,11 @@ def run(args: argparse.Namespace) -> int:
     classifiers = name_list(args.classifier, "--classifier", classifier_names)
     train_records = records_from(args.data)
     test_records = records_from(args.test) if args.test else None
-    verbose = show_progress(args.json)
+    verbose = log_lines(args.json)
 
     def report(row: dict) -> None:
         if verbose:
-            print(f"  done {row['descriptor']} + {row['classifier']}", file=sys.stderr)
+            print(f"  done {row['descriptor']} + {row['classifier']}", file=sys.stderr, flush=True)
 
     rows = compare(
         train_records, test_records, descriptors, classifiers,

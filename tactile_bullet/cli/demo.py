@@ -6,7 +6,15 @@ import argparse
 import os
 import sys
 
-from .common import MAX_WORKERS, add_force_flag, count, emit_json, seed_number, show_progress
+from .common import (
+    MAX_WORKERS,
+    add_force_flag,
+    count,
+    emit_json,
+    log_lines,
+    seed_number,
+    show_progress,
+)
 
 QUICK = {"train_per_shape": 4, "test_per_shape": 2}
 """A smoke-sized demo: seconds instead of minutes, for tests and a first look."""
@@ -36,17 +44,16 @@ def add_parser(sub) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from ..errors import UsageError
     from ..workflow import demo, demo_text
 
-    if args.workers < 1:
-        raise UsageError(f"--workers must be at least 1, got {args.workers}")
     show = show_progress(args.json)
     sizes = QUICK if args.quick else {}
 
+    verbose = log_lines(args.json)
+
     def log(message: str) -> None:
-        if show:
-            print(message, file=sys.stderr)
+        if verbose:
+            print(message, file=sys.stderr, flush=True)
 
     doc = demo(
         args.out, seed=args.seed, workers=args.workers, show=show, log=log, force=args.force,

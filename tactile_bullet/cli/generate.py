@@ -65,6 +65,8 @@ class ProgressLines:
     def __exit__(self, *exc) -> None:
         self._stop.set()
         self._thread.join()
+        if exc[0] is None:
+            self._report()  # the last shards, written since the last look
 
     def _state(self) -> tuple[int, int, int] | None:
         try:
@@ -75,21 +77,24 @@ class ProgressLines:
         except (OSError, ValueError, KeyError, TypeError):
             return None  # not written yet, or mid-replace on a filesystem without rename
 
+    def _report(self) -> None:
+        state = self._state()
+        if state is None or state[:2] == self._last:
+            return
+        self._last = state[:2]
+        done, total, shards = state
+        elapsed = time.perf_counter() - self.started
+        print(
+            f"generate: {done}/{total} grasps done ({shards} shards) after {elapsed:.0f} s",
+            file=sys.stderr,
+            flush=True,
+        )
+
     def _run(self) -> None:
         first = self._state()
         self._last = first[:2] if first else None
         while not self._stop.wait(self.interval):
-            state = self._state()
-            if state is None or state[:2] == self._last:
-                continue
-            self._last = state[:2]
-            done, total, shards = state
-            elapsed = time.perf_counter() - self.started
-            print(
-                f"generate: {done}/{total} grasps done ({shards} shards) after {elapsed:.0f} s",
-                file=sys.stderr,
-                flush=True,
-            )
+            self._report()
 
 
 def run(args: argparse.Namespace) -> int:

@@ -20,6 +20,17 @@ from .hand import FCI_JOINTS, FINGERS, JOINT_NAMES, LONG_FINGERS
 
 RECORD_FORMAT = 1
 
+MAX_OFFSET_M = 1.0
+"""Largest object offset (m) along any palm axis: a metre is far beyond the hand's reach (an
+object there touches nothing), and larger numbers only reach PyBullet as float overflow."""
+MAX_ROTATION_DEG = 90.0
+"""Largest object rotation about the palm normal (deg), either way: the CLI's bound and every
+sweep's (a quarter turn is the thesis' largest, the 90-deg classes of chapter 4)."""
+MAX_TIME_S = 60.0
+"""Longest simulated grasp (s): the enclosure grasp ends in 1-3 s; a longer limit only grows
+the time series a record holds."""
+MAX_SETTLE_STEPS = 10_000
+
 
 @dataclass(frozen=True)
 class Pose:
@@ -37,8 +48,17 @@ class Pose:
         off = tuple(float(v) for v in self.offset)
         if len(off) != 3 or not all(math.isfinite(v) for v in off):
             raise UsageError(f"offset must be three finite numbers in metres, got {self.offset}")
+        if any(abs(v) > MAX_OFFSET_M for v in off):
+            raise UsageError(
+                f"offset {off} m is out of range: each coordinate within +-{MAX_OFFSET_M:g} m"
+            )
         if not math.isfinite(float(self.rotation)):
             raise UsageError(f"rotation must be finite, got {self.rotation}")
+        if abs(math.degrees(float(self.rotation))) > MAX_ROTATION_DEG + 1e-9:
+            raise UsageError(
+                f"rotation {math.degrees(float(self.rotation)):g} deg is out of range "
+                f"[-{MAX_ROTATION_DEG:g}, {MAX_ROTATION_DEG:g}] degrees"
+            )
         object.__setattr__(self, "offset", off)
         object.__setattr__(self, "rotation", float(self.rotation))
 
@@ -82,8 +102,22 @@ class ControllerSettings:
             raise UsageError(f"controller delta {self.delta} rad per tick is too large (max 0.2)")
         if not isinstance(self.preshape, bool | np.bool_):
             raise UsageError(f"controller preshape must be true or false, got {self.preshape!r}")
+        for name in ("control_every", "settle_steps"):
+            value = getattr(self, name)
+            if not isinstance(value, int | np.integer) or isinstance(value, bool):
+                raise UsageError(f"controller {name} must be an integer, got {value!r}")
         if int(self.control_every) < 1 or int(self.settle_steps) < 0:
             raise UsageError("control_every must be >= 1 and settle_steps >= 0")
+        if self.max_time > MAX_TIME_S or self.settle_steps > MAX_SETTLE_STEPS:
+            raise UsageError(
+                f"controller max_time must be at most {MAX_TIME_S:g} s and settle_steps at "
+                f"most {MAX_SETTLE_STEPS}, got {self.max_time!r} and {self.settle_steps!r}"
+            )
+        if self.timestep > 0.01 or self.sample_rate > 1.0 / self.timestep:
+            raise UsageError(
+                f"controller timestep must be at most 0.01 s and sample_rate at most one "
+                f"sample per step, got {self.timestep!r} s and {self.sample_rate!r} Hz"
+            )
 
 
 @dataclass(frozen=True, eq=False)
@@ -225,6 +259,9 @@ def save_record(record: GraspRecord, path: str | Path) -> Path:
 
 def load_record(path: str | Path) -> GraspRecord:
     """Read a record written by :func:`save_record` (never unpickles)."""
+    import zipfile
+    import zlib
+
     path = Path(path)
     try:
         with np.load(path, allow_pickle=False) as data:
@@ -232,6 +269,11 @@ def load_record(path: str | Path) -> GraspRecord:
             arrays = {k: data[k] for k in data.files if k != "meta"}
     except FileNotFoundError:
         raise UsageError(f"record file {path} does not exist") from None
-    except (OSError, ValueError, KeyError) as exc:
-        raise UsageError(f"{path} is not a readable grasp record ({exc})") from None
-    return record_from_parts(meta, arrays)
+    except (OSError, ValueError, KeyError, EOFError, zipfile.BadZipFile, zlib.error) as exc:
+        # a truncated or damaged file (BadZipFile, EOFError, zlib.error) is bad input too
+        why = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
+        raise UsageError(f"{path} is not a readable grasp record ({why})") from None
+    try:
+        return record_from_parts(meta, arrays)
+    except UsageError as exc:
+        raise UsageError(f"{path}: {exc}") from None

@@ -35,10 +35,16 @@ from typing import Any
 import numpy as np
 
 from .errors import UsageError
-from .records import ControllerSettings, Pose
+from .records import MAX_OFFSET_M, MAX_ROTATION_DEG, ControllerSettings, Pose
 
 Dimension = tuple[float, ...] | dict[str, float]
 """A list of values, or {"min", "max"} (+ "steps" in grid mode)."""
+
+MAX_GRASPS = 1_000_000
+"""Most grasps one sweep may hold. Its tasks are built in memory before any simulation
+(about 1 kB each), and a million grasps is already days of simulation on a few cores; a typo
+such as ``samples = 1000000000`` or a grid of 1e12 points is refused before anything is
+allocated (:meth:`Sweep.size`). Split larger collections into several datasets."""
 
 SHAPE_KEYS = ("name", "params", "offset_x", "offset_y", "offset_z", "rotation_deg", "samples")
 SWEEP_KEYS = ("name", "mode", "samples", "controller", "shapes")
@@ -92,7 +98,7 @@ class Sweep:
         _no_unknown(controller_data, tuple(known), f"{source}: [controller]")
         try:
             controller = ControllerSettings(**controller_data)
-        except TypeError as exc:
+        except (TypeError, ValueError) as exc:  # UsageError is a ValueError
             raise UsageError(f"{source}: [controller] {exc}") from None
         shapes_data = data.get("shapes")
         if not isinstance(shapes_data, list) or not shapes_data:
@@ -111,11 +117,13 @@ class Sweep:
     def from_toml(cls, path: str | Path) -> Sweep:
         path = Path(path)
         try:
-            data = tomllib.loads(path.read_text())
+            data = tomllib.loads(path.read_text(encoding="utf-8"))
         except FileNotFoundError:
             raise UsageError(f"config file {path} does not exist") from None
         except OSError as exc:
             raise UsageError(f"cannot read config {path}: {exc.strerror or exc}") from None
+        except UnicodeDecodeError:
+            raise UsageError(f"{path} is not a UTF-8 text file (TOML must be UTF-8)") from None
         except tomllib.TOMLDecodeError as exc:
             raise UsageError(f"{path} is not valid TOML: {exc}") from None
         return cls.from_dict(data, source=str(path))
@@ -132,11 +140,33 @@ class Sweep:
 
     # --- expansion ----------------------------------------------------------------------
 
+    def size(self) -> int:
+        """How many grasps the sweep holds at most (before size combinations that make no
+        solid are left out), computed from the dimensions without expanding them."""
+        total = 0
+        for sweep in self.shapes:
+            if self.mode == "random":
+                total += sweep.samples or self.samples
+                continue
+            n = 1
+            for dim in (*sweep.params.values(), sweep.offset_x, sweep.offset_y,
+                        sweep.offset_z, sweep.rotation_deg):  # fmt: skip
+                n *= len(dim) if isinstance(dim, tuple) else int(dim["steps"])
+            total += n
+        return total
+
     def tasks(self, seed: int = 0) -> list[GraspTask]:
         """Every grasp of the sweep, in a fixed order, each with its own seed derived from
-        ``seed`` and its index (so any subset can be re-run and give the same records)."""
+        ``seed`` and its index (so any subset can be re-run and give the same records).
+        A sweep over :data:`MAX_GRASPS`, or one that leaves a shape with no valid size, is
+        refused before any work."""
         from .grasp import resolve_shape
 
+        if self.size() > MAX_GRASPS:
+            raise UsageError(
+                f"sweep {self.name!r} holds {self.size():,} grasps, over the limit of "
+                f"{MAX_GRASPS:,} per dataset: lower samples or steps, or split it"
+            )
         rng = np.random.default_rng(np.random.SeedSequence([int(seed), 0]))
         specs: list[tuple[str, dict[str, float], Pose]] = []
         for sweep in self.shapes:
@@ -155,6 +185,11 @@ class Sweep:
                 rows = [r for r in _grid(dims) if geometry_ok(shape.name, _sizes(r))]
             else:
                 rows = _random(dims, sweep.samples or self.samples, rng, shape.name)
+            if not rows:
+                raise UsageError(
+                    f"sweep {self.name!r}: no size combination of {shape.name} makes a valid "
+                    "solid, so the sweep would simulate none of it"
+                )
             for row in rows:
                 params = _sizes(row)
                 shape.resolve(params)  # out-of-range sizes are refused before any work
@@ -345,6 +380,14 @@ def _shape_sweep(data: Any, mode: str, where: str) -> ShapeSweep:
         for key in ("offset_x", "offset_y", "offset_z", "rotation_deg")
         if key in data
     }
+    for key, dim in kwargs.items():
+        # the CLI's bounds (records.Pose), checked here so the file's key is named
+        limit, unit = (MAX_ROTATION_DEG, "deg") if key == "rotation_deg" else (MAX_OFFSET_M, "m")
+        lo, hi = (min(dim), max(dim)) if isinstance(dim, tuple) else (dim["min"], dim["max"])
+        if lo < -limit or hi > limit:
+            raise UsageError(
+                f"{where} {key} spans [{lo:g}, {hi:g}] {unit}, outside [-{limit:g}, {limit:g}]"
+            )
     samples = data.get("samples")
     if samples is not None:
         samples = _positive_int(samples, f"{where} samples")

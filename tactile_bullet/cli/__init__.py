@@ -14,6 +14,7 @@ from __future__ import annotations
 import argparse
 import importlib
 import os
+import re
 import signal
 import sys
 import traceback
@@ -77,9 +78,35 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+_NEGATIVE = re.compile(r"-\.?\d")
+"""A value such as ``-0.01,0,0`` or ``-5``: a number, never an option (none starts so)."""
+
+
+def join_negative_values(argv: list[str]) -> list[str]:
+    """``--offset -0.01,0,0`` -> ``--offset=-0.01,0,0``: argparse takes a value that starts
+    with '-' and is not a plain number (a vector is not) for an option, and would refuse it."""
+    out: list[str] = []
+    for i, token in enumerate(argv):
+        previous = out[-1] if out else ""
+        if (
+            _NEGATIVE.match(token)
+            and i > 0
+            and previous.startswith("--")
+            and "=" not in previous
+            and previous == argv[i - 1]
+        ):
+            out[-1] = f"{previous}={token}"
+        else:
+            out.append(token)
+    return out
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = build_parser()
-    args = parser.parse_args(argv)
+    try:
+        args = parser.parse_args(join_negative_values(sys.argv[1:] if argv is None else list(argv)))
+    except SystemExit as exc:  # --help, --version, or bad usage (already printed, one line)
+        return exc.code if isinstance(exc.code, int) else 2
     global _main_pid
     _main_pid = os.getpid()
     try:

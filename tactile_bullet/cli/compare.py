@@ -6,7 +6,7 @@ import argparse
 import sys
 
 from ..errors import UsageError
-from .common import emit_json, show_progress
+from .common import emit_json, log_lines, seed_number
 from .data_args import add_allow_partial, read_data, report_skipped
 
 
@@ -27,7 +27,7 @@ def add_parser(sub) -> None:
         "--classifier", metavar="X,Y", help="classifiers to compare (default: all installed)"
     )
     parser.add_argument("--test-fraction", type=float, default=0.3, help="share held out")
-    parser.add_argument("--seed", type=int, default=0, help="seed of the split")
+    parser.add_argument("--seed", type=seed_number, default=0, help="seed of the split")
     parser.add_argument("--json", action="store_true", help="print one JSON document")
     parser.set_defaults(run=run)
 
@@ -51,11 +51,11 @@ def run(args: argparse.Namespace) -> int:
     loaded = [read_data(args.data, args)] + ([read_data(args.test, args)] if args.test else [])
     train_records = loaded[0].records
     test_records = loaded[1].records if args.test else None
-    verbose = show_progress(args.json)
+    verbose = log_lines(args.json)
 
     def report(row: dict) -> None:
         if verbose:
-            print(f"  done {row['descriptor']} + {row['classifier']}", file=sys.stderr)
+            print(f"  done {row['descriptor']} + {row['classifier']}", file=sys.stderr, flush=True)
 
     rows = compare(
         train_records, test_records, descriptors, classifiers,

@@ -7,11 +7,15 @@ import math
 
 from ..errors import UsageError
 from .common import (
+    add_force_flag,
     emit_json,
+    image_file,
+    output_files,
     parse_key_values,
     parse_number,
-    parse_vector,
-    writable_file,
+    parse_offset,
+    parse_rotation,
+    seed_number,
 )
 
 
@@ -42,10 +46,11 @@ def add_parser(sub) -> None:
         help="start each finger where its sweep comes within 5 mm of the object (1.2x faster, "
         "final angles within ~2.5 deg)",
     )  # fmt: skip
-    parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--seed", type=seed_number, default=0)
     parser.add_argument("--out", help="write the GraspRecord to this .npz file")
     parser.add_argument("--snapshot", help="render the grasp to this PNG (CPU renderer)")
     parser.add_argument("--plot", help="draw FCI and signatures of the grasp to this PNG")
+    add_force_flag(parser, "--out, --snapshot and --plot files")
     parser.add_argument("--gui", action="store_true", help="show PyBullet's window")
     parser.add_argument("--json", action="store_true", help="print one JSON document")
     parser.set_defaults(run=run)
@@ -65,16 +70,13 @@ def run(args: argparse.Namespace) -> int:
     from ..records import Pose
 
     params = {k: parse_number(v, f"--param {k}") for k, v in parse_key_values(args.param).items()}
-    offset = parse_vector(args.offset, 3, "--offset")
-    rotation = math.radians(parse_number(args.rotation, "--rotation"))
-    if abs(rotation) > math.radians(90):
-        raise UsageError(f"--rotation {args.rotation} is out of range [-90, 90] degrees")
-    pose = Pose(offset, rotation)
+    offset = parse_offset(args.offset)
+    pose = Pose(offset, parse_rotation(args.rotation))
     controller = _controller(args)
-    outputs = {}
-    for flag in ("out", "snapshot", "plot"):
-        if getattr(args, flag):
-            outputs[flag] = writable_file(getattr(args, flag), f"--{flag}")
+    outputs = output_files({f: getattr(args, f) for f in ("out", "snapshot", "plot")}, args.force)
+    for flag in ("snapshot", "plot"):
+        if flag in outputs:
+            image_file(outputs[flag], f"--{flag}", "cv2" if flag == "snapshot" else "matplotlib")
 
     from ..grasp import resolve_shape, timed_grasp
 
@@ -148,10 +150,12 @@ def _print_summary(doc: dict) -> None:
     if doc["flags"]:
         print(f"flags: {', '.join(doc['flags'])}")
     sig = doc["signature"]
-    if sig:
+    if sig and sig.get("reason"):
+        print(f"signature: {sig['reason']}")
+    elif sig:
         est = sig.get("rotation_estimate_deg")
         est_text = "n/a" if est is None else f"{est:.1f} deg"
-        print(f"signature: alpha {sig['alpha_deg']:.1f} deg, rotation estimate {est_text}, "
-              f"nearest pattern {sig['nearest_pattern']}")  # fmt: skip
+        named = f"identified {sig['identified']}, nearest pattern {sig['nearest_pattern']}"
+        print(f"signature: alpha {sig['alpha_deg']:.1f} deg, rotation estimate {est_text}, {named}")
     for key, path in doc["outputs"].items():
         print(f"wrote {key}: {path}")

@@ -6,7 +6,14 @@ import argparse
 import math
 
 from ..errors import UsageError
-from .common import emit_json, parse_key_values, parse_number, parse_vector
+from .common import (
+    emit_json,
+    parse_key_values,
+    parse_number,
+    parse_offset,
+    parse_rotation,
+    seed_number,
+)
 
 
 def add_parser(sub) -> None:
@@ -29,7 +36,7 @@ def add_parser(sub) -> None:
     parser.add_argument(
         "--rotation", default="0", metavar="DEG", help="object rotation about the palm normal"
     )
-    parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--seed", type=seed_number, default=0)
     parser.add_argument("--json", action="store_true", help="print one JSON document")
     parser.set_defaults(run=run)
 
@@ -47,10 +54,7 @@ def _record(args: argparse.Namespace):
     from ..records import Pose
 
     params = {k: parse_number(v, f"--param {k}") for k, v in parse_key_values(args.param).items()}
-    rotation = math.radians(parse_number(args.rotation, "--rotation"))
-    if abs(rotation) > math.radians(90):
-        raise UsageError(f"--rotation {args.rotation} is out of range [-90, 90] degrees")
-    pose = Pose(parse_vector(args.offset, 3, "--offset"), rotation)
+    pose = Pose(parse_offset(args.offset), parse_rotation(args.rotation))
     return simulate_grasp(args.shape, params, pose, seed=args.seed)
 
 
@@ -74,6 +78,8 @@ def run(args: argparse.Namespace) -> int:
     }
     if args.json:
         emit_json(doc)
+    elif doc["shape"] is None:
+        print(f"{doc['reason']} (grasped: {record.shape})")
     else:
         print(f"identified: {doc['shape']} (grasped: {record.shape})")
         ranked = sorted(doc["probabilities"].items(), key=lambda kv: -kv[1])

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import argparse
 
-from .common import emit_json, estimator_params, writable_file
+from .common import add_force_flag, emit_json, estimator_params, writable_file
 from .data_args import add_allow_partial, read_data, report_skipped
 
 
@@ -27,6 +27,7 @@ def add_parser(sub) -> None:
         help="descriptor parameter (repeatable)",
     )  # fmt: skip
     parser.add_argument("--out", required=True, metavar="MODEL", help="model file to write")
+    add_force_flag(parser, "model file")
     parser.add_argument("--json", action="store_true", help="print one JSON document")
     parser.set_defaults(run=run)
 
@@ -37,7 +38,7 @@ def run(args: argparse.Namespace) -> int:
     from ..models import save_model
     from ..workflow import describe_model, train
 
-    out = writable_file(args.out, "--out")
+    out = writable_file(args.out, "--out", args.force)
     params = estimator_params(args.param, "--param")
     descriptor_params = estimator_params(args.descriptor_param, "--descriptor-param")
     loaded = read_data(args.data, args)

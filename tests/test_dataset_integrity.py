@@ -203,6 +203,18 @@ def test_a_damaged_record_file_in_a_folder_is_named(tmp_path):
         records_from(folder)
     with pytest.warns(PartialDataWarning, match="1 record skipped"):
         assert [r.shape for r in records_from(folder, allow_partial=True)] == ["cylinder", "cone"]
+    delete(folder / "rec00001.npz")
+    os.mkfifo(folder / "rec00001.npz")  # reading it would block forever
+    with pytest.raises(UsageError, match="rec00001.npz is not a regular file"):
+        records_from(folder)
+
+
+def test_a_lock_file_that_links_elsewhere_is_not_followed(ds, tmp_path):
+    (ds / ".lock").unlink()
+    os.symlink(tmp_path / "elsewhere", ds / ".lock")
+    with pytest.raises(UsageError, match="is a link"):
+        write(mix_sweep(ds.parent), ds, resume=True)
+    assert not (tmp_path / "elsewhere").exists()
 
 
 # --- manifests are validated on load --------------------------------------------------------

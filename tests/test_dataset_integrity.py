@@ -399,3 +399,18 @@ def test_a_model_file_cut_short_is_refused_by_name(pristine, tmp_path, capsys):
     with warnings.catch_warnings():
         warnings.simplefilter("error")  # a sound dataset reads without any warning
         assert len(records_from(pristine, allow_partial=True)) == N_RECORDS
+
+
+def test_sequential_refuses_a_damaged_dataset_unless_allowed(ds, tmp_path, capsys):
+    from argparse import Namespace
+
+    from tactile_bullet.sequential_experiment import load_data
+
+    delete(ds / "shard-00000.npz")
+    err = run_error(capsys, ["sequential", "--data", str(ds), "--out", str(tmp_path / "seq")])
+    assert "shard-00000.npz: missing" in err
+    args = Namespace(synthetic=False, data=ds, descriptor="signature", descriptor_param=None,
+                     allow_partial=True)  # fmt: skip
+    X, y, names = load_data(args)  # what `sequential --allow-partial` learns from
+    assert len(X) == len(y) == N_RECORDS - 4 and names == ["cylinder", "sphere"]
+    assert "--allow-partial: 4 records skipped" in capsys.readouterr().out

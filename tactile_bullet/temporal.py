@@ -48,6 +48,10 @@ from .signature import FCI_SHAPE, JOINT_FULL_SCALE
 F_G = 60.0
 """Rate (Hz) at which rows of G are sampled: the simulator's record rate."""
 
+NOMINAL_SPEED = 1.44
+"""Closing speed (rad/s) of a joint under the default controller (0.006 rad per 1/240 s tick):
+the speed the detector's defaults below are set for."""
+
 GBIN_THRESHOLD = 30.0
 """|dG/dt| (grey levels per s, 8-bit FCI) above which a Gbin pixel is 1: about 40% of the
 simulated free closing speed of J0 (1.44 rad/s, 78 grey levels per s), well above the drift of

@@ -42,6 +42,11 @@ def add_parser(sub) -> None:
         help="start each finger where its sweep comes within 5 mm of the object (1.2x faster, "
         "final angles within ~2.5 deg)",
     )  # fmt: skip
+    parser.add_argument(
+        "--early-stop", action="store_true",
+        help="stop closing a finger once the dynamic detector finds it out of contact "
+        "(fewer steps when a finger misses the object)",
+    )  # fmt: skip
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--out", help="write the GraspRecord to this .npz file")
     parser.add_argument("--snapshot", help="render the grasp to this PNG (CPU renderer)")
@@ -54,7 +59,7 @@ def add_parser(sub) -> None:
 def _controller(args):
     from ..records import ControllerSettings
 
-    overrides = {"mode": args.mode, "preshape": args.preshape}
+    overrides = {"mode": args.mode, "preshape": args.preshape, "early_stop": args.early_stop}
     for key, value in (("delta", args.delta), ("thres_t", args.thres), ("max_time", args.max_time)):
         if value is not None:
             overrides[key] = value

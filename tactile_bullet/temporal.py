@@ -547,21 +547,31 @@ def identify_corrected(
     """Identify a record by DTW to the theoretical patterns after dropping the fingers the
     ``correction`` detector finds out of contact. A record without a time series (final angles
     only) is identified uncorrected, and says so in ``correction``."""
-    from .patterns import identify, size_matched_library
-    from .signature import FLAT_FLOOR
-
-    if match not in PATTERN_MATCH:
-        raise UsageError(f"match must be one of {', '.join(PATTERN_MATCH)}, got {match!r}")
     try:
         keep = contact_mask(record, correction)
     except UsageError:
         if correction == "none" or getattr(record, "time", np.empty(0)).size >= MIN_SAMPLES:
             raise
         keep, correction = np.ones(len(LONG_FINGERS), dtype=bool), "none"
-    if keep.sum() < 2:
-        keep = np.ones(len(LONG_FINGERS), dtype=bool)
-    sig = corrected_signature(record.fci_angles(), keep, floor=FLAT_FLOOR)
-    lib = corrected_library(keep, FLAT_FLOOR) if match == "same-fingers" else None
-    ident = identify(sig, lib or size_matched_library(), thresholds)
+    ident, keep = identify_masked(record.fci_angles(), keep, match, thresholds)
     kept = tuple(f for f, k in zip(LONG_FINGERS, keep, strict=True) if k)
     return CorrectedIdentification(ident, correction, kept)
+
+
+def identify_masked(angles, keep, match: str = "same-fingers", thresholds=None):
+    """``patterns.identify`` of final angles (3, 4) with only the fingers in ``keep``:
+    (Identification, the mask used; all four where fewer than two were kept)."""
+    from .patterns import identify, size_matched_library
+    from .signature import FLAT_FLOOR
+
+    if match not in PATTERN_MATCH:
+        raise UsageError(f"match must be one of {', '.join(PATTERN_MATCH)}, got {match!r}")
+    keep = np.asarray(keep, dtype=bool)
+    if keep.sum() < 2:
+        keep = np.ones(len(LONG_FINGERS), dtype=bool)
+    sig = corrected_signature(angles, keep, floor=FLAT_FLOOR)
+    if keep.all() or match == "full":
+        lib = size_matched_library()
+    else:
+        lib = corrected_library(keep, FLAT_FLOOR)
+    return identify(sig, lib, thresholds), keep

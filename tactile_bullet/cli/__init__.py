@@ -28,6 +28,7 @@ COMMANDS: tuple[str, ...] = (
     "identify",
     "demo",
     "sequential",
+    "temporal",
     "plugins",
 )
 

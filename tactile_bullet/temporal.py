@@ -499,9 +499,11 @@ def temporal_summary(record) -> dict:
 # --- training-free identification on corrected signatures ----------------------------------
 
 PATTERN_MATCH = ("full", "same-fingers")
-"""What a corrected signature is compared with: the full four-finger patterns (the thesis: the
-kept fingers span the object as four span a centred one) or each pattern with the same fingers
-dropped."""
+"""What a corrected signature is compared with: the full four-finger patterns (the thesis, and
+the default: the kept fingers span the object as four span a centred one) or each pattern with
+the same fingers dropped. On an off-centre 35 mm sphere with the little finger off it, the
+corrected signature lies 8.3 from the sphere patterns in full against 17.0 with the same
+fingers dropped (11.4 uncorrected); over the temporal preset both name 66-67% of the grasps."""
 
 
 def _angles_of_fci(image: np.ndarray, bits: int = 8) -> np.ndarray:
@@ -542,7 +544,7 @@ class CorrectedIdentification:
 
 
 def identify_corrected(
-    record, correction: str = "dynamic", match: str = "same-fingers", thresholds=None
+    record, correction: str = "dynamic", match: str = "full", thresholds=None
 ) -> CorrectedIdentification:
     """Identify a record by DTW to the theoretical patterns after dropping the fingers the
     ``correction`` detector finds out of contact. A record without a time series (final angles
@@ -558,7 +560,7 @@ def identify_corrected(
     return CorrectedIdentification(ident, correction, kept)
 
 
-def identify_masked(angles, keep, match: str = "same-fingers", thresholds=None):
+def identify_masked(angles, keep, match: str = "full", thresholds=None):
     """``patterns.identify`` of final angles (3, 4) with only the fingers in ``keep``:
     (Identification, the mask used; all four where fewer than two were kept)."""
     from .patterns import identify, size_matched_library

@@ -136,7 +136,7 @@ def dtw_scores(records: Sequence, correction: str = "dynamic") -> dict[str, Any]
     """DTW distances of raw and corrected signatures to their own pattern and to the others
     (Fig 3.14), and the training-free identification rate of each."""
     from .patterns import closest_in_size, signature_distance, size_matched_library
-    from .temporal import corrected_library, corrected_signature, identify_masked
+    from .temporal import corrected_signature, identify_masked
 
     lib = size_matched_library()
     out: dict[str, Any] = {}
@@ -147,7 +147,7 @@ def dtw_scores(records: Sequence, correction: str = "dynamic") -> dict[str, Any]
             ident, keep = identify_masked(r.fci_angles(), keep)
             right.append(ident.name == r.shape)
             sig = corrected_signature(r.fci_angles(), keep)
-            use = lib if keep.all() else corrected_library(keep)
+            use = lib
             if r.shape not in use:
                 continue
             for name, family in use.items():

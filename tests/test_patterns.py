@@ -144,8 +144,9 @@ def test_signature_summary_has_the_grasp_json_fields(grasps):
     summary = signature_summary(grasps["cone"][0])
     assert set(summary) == {
         "alpha_deg", "rotation_estimate_deg", "nearest_pattern", "distances",
-        "in_identification_range",
+        "in_identification_range", "identified", "correction",
     }  # fmt: skip
+    assert summary["correction"]["detector"] == "dynamic"
     assert set(summary["distances"]) == set(default_library())
     assert summary["nearest_pattern"] in {*default_library(), "unknown"}
     # the cone of radius 40 mm, length 140 mm lies where identification held; the

@@ -122,11 +122,15 @@ class Sweep:
 
     def to_dict(self) -> dict[str, Any]:
         """JSON/TOML-ready form, stored in the dataset manifest (and compared on --resume)."""
+        controller = asdict(self.controller)
+        if not controller["early_stop"]:
+            # left out when off, so datasets begun before the option existed still resume
+            del controller["early_stop"]
         return {
             "name": self.name,
             "mode": self.mode,
             "samples": self.samples,
-            "controller": asdict(self.controller),
+            "controller": controller,
             "shapes": [_shape_dict(s) for s in self.shapes],
         }
 

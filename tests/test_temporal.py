@@ -277,3 +277,15 @@ def test_temporal_command_bad_input_exits_2(sphere_off, tmp_path, capsys):
     path = save_record(bare, tmp_path / "bare.npz")
     err = run_error(capsys, ["temporal", "--data", str(path), "--out", str(tmp_path / "o")])
     assert "time series" in err
+
+
+def test_a_sweep_can_ask_for_early_stop_and_old_manifests_still_match():
+    from tactile_bullet.sweeps import Sweep
+
+    data = {"controller": {"early_stop": True}, "shapes": [{"name": "sphere"}]}
+    sweep = Sweep.from_dict(data)
+    assert all(t.controller.early_stop for t in sweep.tasks())
+    assert sweep.to_dict()["controller"]["early_stop"] is True
+    plain = Sweep.from_dict({"shapes": [{"name": "sphere"}]}).to_dict()
+    assert "early_stop" not in plain["controller"]  # as manifests written before it existed
+    assert Sweep.from_dict(plain).to_dict() == plain

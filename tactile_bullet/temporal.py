@@ -37,6 +37,7 @@ The two detectors of thesis 3.2:
 
 from __future__ import annotations
 
+from collections import deque
 from dataclasses import dataclass
 
 import numpy as np
@@ -313,6 +314,8 @@ class DynamicDetector:
     rises, a rise without a stall of ``run_s`` means out of contact, and ``settle_s`` without
     a rise means in contact. :meth:`finish` decides the rest at the end of the series
     (a finger still rising, or never risen, counts as in contact: no evidence against it).
+    State is a few numbers per finger, so a stream of any length costs constant memory with
+    ``history`` set.
     """
 
     def __init__(
@@ -324,6 +327,7 @@ class DynamicDetector:
         stall: int = STALL_ROWS,
         bits: int = 8,
         fingers: int = len(LONG_FINGERS),
+        history: int | None = None,
     ) -> None:
         for name, value in (("rate", rate), ("threshold", threshold), ("run_s", run_s),
                             ("settle_s", settle_s)):  # fmt: skip
@@ -338,7 +342,8 @@ class DynamicDetector:
         self._cur: np.ndarray | None = None
         self._cur_t = 0.0
         self.rows = 0
-        self.binary: list[np.ndarray] = []
+        self.binary: deque[np.ndarray] = deque(maxlen=history)
+        """Rows of Gbin so far (the last ``history`` only, when given: a stream can be long)."""
         self.onset = np.full(self.n, -1)
         self._run_start = np.full(self.n, -1)
         self._still = np.zeros(self.n, dtype=int)

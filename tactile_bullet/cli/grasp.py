@@ -169,5 +169,11 @@ def _print_summary(doc: dict) -> None:
         est_text = "n/a" if est is None else f"{est:.1f} deg"
         print(f"signature: alpha {sig['alpha_deg']:.1f} deg, rotation estimate {est_text}, "
               f"nearest pattern {sig['nearest_pattern']}")  # fmt: skip
+    temporal = doc.get("temporal")
+    if temporal:
+        dyn = temporal["dynamic"]
+        off = ", ".join(dyn["non_contact"]) or "none"
+        print(f"fingers off the object (dynamic detector): {off}, all known at "
+              f"{dyn['decided_at_s']:.2f} s")  # fmt: skip
     for key, path in doc["outputs"].items():
         print(f"wrote {key}: {path}")

@@ -125,7 +125,9 @@ def plot_dtw(scores: dict, path: Path) -> Path:
     data = [scores["raw"]["_own"], scores["raw"]["_other"],
             scores["corrected"]["_own"], scores["corrected"]["_other"]]  # fmt: skip
     ax.boxplot([d if d else [np.nan] for d in data], widths=0.6, flierprops={"markersize": 2})
-    ax.set_xticks([1, 2, 3, 4], ["raw: own", "raw: others", "corrected: own", "corrected: others"])
+    ax.set_xticks(
+        [1, 2, 3, 4], ["raw:\nown", "raw:\nothers", "corrected:\nown", "corrected:\nothers"]
+    )
     th = load_thresholds().correspondence
     if np.isfinite(th):
         ax.axhline(th, color="0.4", ls="--", label=f"correspondence threshold {th:.1f}")

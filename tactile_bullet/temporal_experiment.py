@@ -140,6 +140,7 @@ def dtw_scores(records: Sequence, correction: str = "dynamic") -> dict[str, Any]
 
     lib = size_matched_library()
     out: dict[str, Any] = {}
+    dropped = np.array([not detect(r, correction).contact_mask.all() for r in records])
     for label, method in (("raw", "none"), ("corrected", correction)):
         own, other, right = [], [], []
         for r in records:
@@ -153,14 +154,19 @@ def dtw_scores(records: Sequence, correction: str = "dynamic") -> dict[str, Any]
             for name, family in use.items():
                 d = signature_distance(sig, closest_in_size(sig, family))
                 (own if name == r.shape else other).append(d)
+        right = np.array(right, dtype=bool)
         out[label] = {
-            "identified": float(np.mean(right)) if right else None,
+            "identified": float(np.mean(right)) if right.size else None,
+            "identified_where_a_finger_was_dropped": (
+                float(np.mean(right[dropped])) if dropped.any() else None
+            ),
             "own_median": float(np.median(own)) if own else None,
             "other_median": float(np.median(other)) if other else None,
             "_own": own,
             "_other": other,
         }
     out["correction"] = correction
+    out["grasps_with_a_finger_dropped"] = int(dropped.sum())
     return out
 
 

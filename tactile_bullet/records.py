@@ -90,6 +90,11 @@ class ControllerSettings:
     ~2.5 deg in torque mode, but that shift costs the signature accuracy on cylinder vs
     hyperboloid (``tactile-bullet demo``: 96.7% -> 85.0%), so it is off by default. The thumb
     always skips its free sweep, which leaves the long fingers' angles unchanged."""
+    early_stop: bool = False
+    """Stop closing a finger as soon as the dynamic non-contact detector (``temporal.py``,
+    thesis ch. 3) finds it out of contact, instead of running it to its joint limits: fewer
+    physics steps where a finger misses the object, identical grasps where none does. Off by
+    default (records saved before it existed load with it off)."""
 
     def __post_init__(self) -> None:
         if self.mode not in ("torque", "contact"):
@@ -100,8 +105,11 @@ class ControllerSettings:
                 raise UsageError(f"controller {name} must be a positive number, got {value!r}")
         if self.delta > 0.2:
             raise UsageError(f"controller delta {self.delta} rad per tick is too large (max 0.2)")
-        if not isinstance(self.preshape, bool | np.bool_):
-            raise UsageError(f"controller preshape must be true or false, got {self.preshape!r}")
+        for flag in ("preshape", "early_stop"):
+            if not isinstance(getattr(self, flag), bool | np.bool_):
+                raise UsageError(
+                    f"controller {flag} must be true or false, got {getattr(self, flag)!r}"
+                )
         for name in ("control_every", "settle_steps"):
             value = getattr(self, name)
             if not isinstance(value, int | np.integer) or isinstance(value, bool):

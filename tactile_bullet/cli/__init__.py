@@ -33,6 +33,7 @@ COMMANDS: tuple[str, ...] = (
     "identify",
     "demo",
     "sequential",
+    "temporal",
     "plugins",
 )
 

@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import json
 import os
+import re
 import shutil
 from collections.abc import Sequence
 from pathlib import Path
@@ -118,6 +119,8 @@ def export(
     records = list(records)
     if not records:
         raise UsageError("no grasps to export")
+    if prefix and not re.fullmatch(r"[A-Za-z][A-Za-z0-9]*_?", prefix):
+        raise UsageError(f"--prefix must be letters and digits like 'rh_', got {prefix!r}")
     if prefix and not prefix.endswith("_"):
         prefix += "_"
     names = tuple(prefix + n for n in published_names(coupled))

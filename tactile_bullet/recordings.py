@@ -786,6 +786,37 @@ def read_recordings(
     return out
 
 
+def identify_grasps(model, grasps: Sequence[RecordedGrasp]) -> list[dict]:
+    """The model's answer for every grasp of a recording, features computed in one batch:
+    ``{"index", "file", "start_s", "end_s", "samples", "label", "shape", "probabilities"}``
+    (``label`` the file's or the user's, None when unknown)."""
+    records = [g.record for g in grasps]
+    if not records:
+        return []
+    features = model.features(records)
+    shapes = np.asarray(model.estimator.predict(features)).astype(str)
+    classes = [str(c) for c in model.classes]
+    try:
+        proba = np.asarray(model.estimator.predict_proba(features), dtype=float)
+    except (AttributeError, NotImplementedError):
+        proba = np.array([[float(c == s) for c in classes] for s in shapes])
+    out = []
+    for g, shape, row in zip(grasps, shapes, proba, strict=True):
+        out.append(
+            {
+                "index": g.index,
+                "file": g.file,
+                "start_s": g.start_s,
+                "end_s": g.end_s,
+                "samples": int(g.record.time.size),
+                "label": None if g.record.shape == UNKNOWN_SHAPE else g.record.shape,
+                "shape": str(shape),
+                "probabilities": {c: float(p) for c, p in zip(classes, row, strict=True)},
+            }
+        )
+    return out
+
+
 # --- datasets -----------------------------------------------------------------------------------
 
 

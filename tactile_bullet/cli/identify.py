@@ -7,6 +7,7 @@ import math
 
 from ..errors import UsageError
 from .common import emit_json, parse_key_values, parse_number, parse_vector
+from .import_ import add_recording_options, identify_recording
 
 
 def add_parser(sub) -> None:
@@ -20,6 +21,9 @@ def add_parser(sub) -> None:
     source = parser.add_mutually_exclusive_group(required=True)
     source.add_argument("--shape", help="simulate a grasp on this shape")
     source.add_argument("--record", metavar="REC.npz", help="a saved grasp record")
+    source.add_argument(
+        "--recording", metavar="FILE", help="a real hand's recording (bag, CSV, Parquet)"
+    )
     parser.add_argument(
         "--param", action="append", metavar="KEY=VALUE", help="shape size in metres (repeatable)"
     )
@@ -31,6 +35,7 @@ def add_parser(sub) -> None:
     )
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--json", action="store_true", help="print one JSON document")
+    add_recording_options(parser)
     parser.set_defaults(run=run)
 
 
@@ -58,6 +63,8 @@ def run(args: argparse.Namespace) -> int:
     from ..models import load_model
     from ..workflow import identify
 
+    if args.recording:
+        return identify_recording(args)
     model = load_model(args.model)
     record = _record(args)
     doc = identify(model, record)

@@ -89,7 +89,9 @@ SETTLE_S = 0.15
 (streaming: ``grasp_over``)."""
 STILL_TOL = 0.01
 
-_NAME = re.compile(r"^(?:(?P<prefix>[A-Za-z][A-Za-z0-9]*)_)?(?P<joint>(?:FF|MF|RF|LF|TH|WR)J\d)$")
+_NAME = re.compile(
+    r"^(?:(?P<prefix>[A-Za-z][A-Za-z0-9]*)_)?(?P<joint>(?:FF|MF|RF|LF|TH|WR)J\d)$", re.I
+)
 _KNOWN = frozenset(JOINT_NAMES) | {f"{f.upper()}J0" for f in COUPLED_FINGERS}
 _COLUMN = {name: i for i, name in enumerate(JOINT_NAMES)}
 _CLOSURE = np.array([_COLUMN[f"{f.upper()}J{k}"] for f in LONG_FINGERS for k in (3, 2, 1)])

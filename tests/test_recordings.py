@@ -10,7 +10,6 @@ import math
 
 import numpy as np
 import pytest
-from synthetic import make_records
 
 from tactile_bullet import workflow
 from tactile_bullet.calibration import Calibration, calibration_from_dict
@@ -161,7 +160,10 @@ def test_a_continuous_stream_is_cut_where_the_hand_opens(tmp_path, simulated):
     angles = np.vstack([a.angles, opening, b.angles])
     time = np.arange(len(angles)) / 60.0
     header = "time," + ",".join("rh_" + n for n in JOINT_NAMES)
-    rows = [f"{float(t)!r}," + ",".join(repr(float(v)) for v in q) for t, q in zip(time, angles)]
+    rows = [
+        f"{float(t)!r}," + ",".join(repr(float(v)) for v in q)
+        for t, q in zip(time, angles, strict=True)
+    ]
     path = tmp_path / "stream.csv"
     path.write_text(header + "\n" + "\n".join(rows) + "\n")
     grasps = read_recording(path)

@@ -352,6 +352,8 @@ def _rosbags():
 
 def _bag_root(path: Path) -> Path:
     """A ROS 2 bag is its folder: a .db3/.mcap file inside one is read through the folder."""
+    if path.is_dir():
+        return path
     if path.suffix in (".db3", ".mcap") and (path.parent / "metadata.yaml").is_file():
         return path.parent
     if path.suffix in (".db3", ".mcap"):

@@ -188,7 +188,7 @@ class Identifier:
                    "grasp_over": False, "samples": 0}  # fmt: skip
         else:
             over = not seg.closing or seg.settled
-            answer, probabilities = self._predict(record)
+            answer, probabilities = self._predict(record, decide=over)
             doc = {
                 "shape": answer if over else None,
                 "probabilities": probabilities,
@@ -199,28 +199,37 @@ class Identifier:
         self._cache = doc
         return doc
 
-    def _predict(self, record) -> tuple[str, dict[str, float]]:
+    def _predict(self, record, decide: bool) -> tuple[str | None, dict[str, float]]:
+        """(the estimator's own decision when ``decide``, else None; probabilities). The
+        decision is asked for separately because it can differ from the probabilities'
+        argmax (an SVM with Platt scaling); a grasp still closing skips it."""
         features = self.model.features([record])
         estimator = self.model.estimator
-        shape = str(np.asarray(estimator.predict(features))[0])
+        shape = str(np.asarray(estimator.predict(features))[0]) if decide else None
         try:
             proba = np.asarray(estimator.predict_proba(features), dtype=float)[0]
         except (AttributeError, NotImplementedError):
+            shape = shape or str(np.asarray(estimator.predict(features))[0])
             return shape, {c: float(c == shape) for c in self._classes}
         return shape, {c: float(p) for c, p in zip(self._classes, proba, strict=True)}
 
 
 def _rotation(record, shape: str) -> float | None:
     """Calibrated object rotation (deg) from the signature's slope, with ``shape``'s own
-    line; None where the packaged calibration has none."""
+    line; None where the packaged calibration has none. Only the raw lines' end points are
+    needed, so the enhancement is skipped."""
+    from types import SimpleNamespace
+
     from .rotation import alpha_of, estimate_rotation_deg, load_calibration
-    from .signature import signature_of
+    from .signature import end_point_angle, fci, raw_signature
 
     cal = load_calibration()
     if cal is None:
         return None
     try:
-        alpha = alpha_of(signature_of(record), cal.line)
+        lower, upper = raw_signature(fci(record.fci_angles()))
     except UsageError:
         return None
-    return estimate_rotation_deg(alpha, cal, shape)
+    a_lo, a_up = end_point_angle(lower), end_point_angle(upper)
+    alphas = SimpleNamespace(alpha_lower=a_lo, alpha_upper=a_up, alpha_deg=0.5 * (a_lo + a_up))
+    return estimate_rotation_deg(alpha_of(alphas, cal.line), cal, shape)

@@ -397,7 +397,7 @@ def read_bag(
                 raise UsageError(f"{where} has no marker topic {marker_topic}")
             wanted = [c for c in reader.connections if c.topic in (topic, marker_topic)]
             maps: dict[tuple[str, ...], JointMap] = {}
-            stamps, receive, pos_rows, eff_rows, events = [], [], [], [], []
+            stamps, receive, pos_rows, eff_rows, events, keys = [], [], [], [], [], []
             has_eff = True
             current = None
             for conn, t_recv, raw in reader.messages(connections=wanted):
@@ -410,17 +410,16 @@ def read_bag(
                     current = maps.get(names)
                     if current is None:
                         current = maps[names] = JointMap(names, calibration, where)
-                position = np.asarray(msg.position, float)
-                if position.size != len(names):
+                position, effort = msg.position, msg.effort
+                if len(position) != len(names):
                     raise UsageError(
-                        f"{where}: a message has {len(names)} names but {position.size} positions"
+                        f"{where}: a message has {len(names)} names but {len(position)} positions"
                     )
-                effort = np.asarray(msg.effort, float)
-                if effort.size != len(names):
+                if len(effort) != len(names):
                     has_eff = False
-                    effort = np.zeros(len(names))
-                pos_rows.append(current.positions(position))
-                eff_rows.append(current.efforts(effort))
+                pos_rows.append(position)
+                eff_rows.append(effort)
+                keys.append(current)
                 stamp = msg.header.stamp
                 stamps.append(int(stamp.sec) * 1_000_000_000 + int(stamp.nanosec))
                 receive.append(int(t_recv))
@@ -439,11 +438,16 @@ def read_bag(
         stamp_ns = recv_ns
     time = (stamp_ns - stamp_ns[0]) / 1e9
     _check_time(time, where)
-    angles = np.array(pos_rows)
+    angles = np.zeros((len(pos_rows), len(JOINT_NAMES)))
+    efforts = np.zeros_like(angles)
+    for jmap in maps.values():  # one batch per distinct name list (usually one)
+        rows = [k for k, m in enumerate(keys) if m is jmap] if len(maps) > 1 else slice(None)
+        chosen = pos_rows if len(maps) == 1 else [pos_rows[k] for k in rows]
+        angles[rows] = jmap.positions(np.array(chosen, float))
+        if has_eff:
+            chosen = eff_rows if len(maps) == 1 else [eff_rows[k] for k in rows]
+            efforts[rows] = jmap.efforts(np.array(chosen, float))
     _check_finite(angles, where, "joint positions")
-    efforts = np.array(eff_rows)
-    if not has_eff:
-        efforts[:] = 0.0
     origin = int(recv_ns[0])
     windows = None
     if marker_topic is not None:

@@ -65,6 +65,8 @@ def run(args: argparse.Namespace) -> int:
 
     if args.recording:
         return identify_recording(args)
+    if args.calibration or args.marker or args.topic != "/joint_states" or args.gap != "0.5":
+        raise UsageError("--topic, --marker, --gap and --calibration read a --recording")
     model = load_model(args.model)
     record = _record(args)
     doc = identify(model, record)

@@ -83,7 +83,9 @@ def _timeline(records: Sequence[GraspRecord]) -> list[np.ndarray]:
     return out
 
 
-def _check_out(out: Path, fmt: str, force: bool) -> None:
+def check_out(out: Path, fmt: str, force: bool) -> None:
+    """Refuse, before any work, an unknown format, an unwritable folder, or an existing output
+    without ``force`` (and with it, anything but the kind of output about to be written)."""
     if fmt not in FORMATS:
         raise UsageError(f"unknown format {fmt!r} (formats: {', '.join(FORMATS)})")
     parent = out.parent if str(out.parent) else Path(".")
@@ -115,7 +117,7 @@ def export(
     """Write ``records`` to ``out`` in format ``fmt`` (see the module docstring); the output
     appears whole or not at all. Returns ``{"out", "format", "grasps", "messages"}``."""
     out = Path(out)
-    _check_out(out, fmt, force)
+    check_out(out, fmt, force)
     records = list(records)
     if not records:
         raise UsageError("no grasps to export")

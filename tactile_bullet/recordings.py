@@ -831,12 +831,14 @@ def identify_grasps(model, grasps: Sequence[RecordedGrasp]) -> list[dict]:
 def write_dataset(
     records: Sequence[GraspRecord],
     out: str | Path,
-    config: Mapping,
+    origin: Mapping,
     force: bool = False,
     shard_size: int = 32,
 ) -> dict:
     """Write records as a dataset folder (manifest + checksummed shards, dataset.py's format)
     that ``train``, ``evaluate``, ``compare`` and ``identify`` read like a simulated one.
+    ``origin`` (JSON) says where the records came from; the manifest keeps it as its
+    ``config.sweep`` (named "import"), with seed 0, since no sweep generated them.
 
     Built in a temporary folder beside ``out`` and renamed into place, so a failure leaves
     nothing; an existing ``out`` is refused unless ``force`` (and even then only an empty
@@ -849,7 +851,7 @@ def write_dataset(
     from .files import write_bytes_atomic
 
     out = Path(out)
-    _check_out(out, force)
+    check_dataset_out(out, force)
     if not records:
         raise UsageError("no grasps to write")
     parent = out.parent if str(out.parent) else Path(".")
@@ -873,11 +875,16 @@ def write_dataset(
                     "failed": 0,
                     "tasks": list(range(lo, lo + len(chunk))),
                     "sha256": hashlib.sha256(data).hexdigest(),
+                    "bytes": len(data),
                 }
             )
         manifest = {
             "format": FORMAT,
-            "config": {**dict(config), "shard_size": shard_size},
+            "config": {
+                "sweep": {"name": "import", **dict(origin)},
+                "seed": 0,
+                "shard_size": shard_size,
+            },
             "tasks": len(records),
             "software": software_versions(),
             "shards": shards,
@@ -899,7 +906,9 @@ def write_dataset(
     return {"out": str(out), "records": len(records), "shards": len(shards)}
 
 
-def _check_out(out: Path, force: bool) -> None:
+def check_dataset_out(out: Path, force: bool) -> None:
+    """Refuse an ``out`` that is a file, a folder of other files, or a dataset (unless
+    ``force``): checked before recordings are read, and again before writing."""
     from .dataset import MANIFEST
 
     if not out.exists():

@@ -39,11 +39,11 @@ def run(args: argparse.Namespace) -> int:
     import time
     from pathlib import Path
 
-    from ..export import _check_out, export
+    from ..export import check_out, export
     from ..workflow import records_from
 
     start = time.perf_counter()
-    _check_out(Path(args.out), args.format, args.force)  # before loading the dataset
+    check_out(Path(args.out), args.format, args.force)  # before loading the dataset
     records = records_from(args.data)
     doc = export(
         records, args.out, args.format, topic=args.topic, prefix=args.prefix,

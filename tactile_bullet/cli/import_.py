@@ -64,29 +64,28 @@ def run(args: argparse.Namespace) -> int:
     from collections import Counter
     from pathlib import Path
 
-    from ..recordings import _check_out, read_recording, write_dataset
+    from ..recordings import check_dataset_out, read_recording, write_dataset
 
     start = time.perf_counter()
     if args.shape is not None and not args.shape.strip():
         raise UsageError("--shape must not be empty")
     options = recording_options(args)
-    _check_out(Path(args.out), args.force)  # refuse before reading gigabytes
+    check_dataset_out(Path(args.out), args.force)  # refuse before reading gigabytes
     files, records = [], []
     for path in args.files:
         grasps = read_recording(path, shape=args.shape, **options)
         files.append({"file": str(path), "grasps": len(grasps)})
         records += [g.record for g in grasps]
-    config = {
-        "import": {
-            "files": files,
-            "topic": args.topic,
-            "marker": args.marker,
-            "gap_s": options["gap_s"],
-            "shape": args.shape,
-            "calibration": options["calibration"].to_dict() if options["calibration"] else None,
-        }
+    origin = {
+        "source": "recorded",
+        "files": files,
+        "topic": args.topic,
+        "marker": args.marker,
+        "gap_s": options["gap_s"],
+        "shape": args.shape,
+        "calibration": options["calibration"].to_dict() if options["calibration"] else None,
     }
-    doc = write_dataset(records, args.out, config, force=args.force)
+    doc = write_dataset(records, args.out, origin, force=args.force)
     doc["files"] = files
     doc["labels"] = dict(Counter(r.shape for r in records))
     doc["wall_time_s"] = time.perf_counter() - start

@@ -4,7 +4,9 @@ Each subcommand lives in its own module ``tactile_bullet.cli.<name>`` exposing
 ``add_parser(subparsers)`` and ``run(args) -> int``. Modules import heavy libraries (pybullet,
 torch, matplotlib) inside ``run`` so that ``tactile-bullet --help`` starts fast.
 
-Exit status: 0 success, 2 bad input (one line on stderr, no traceback), 1 internal failure.
+Exit status: 0 success, 2 bad input (one line on stderr, no traceback), 1 internal failure,
+130 interrupted (Ctrl-C), 143 terminated (SIGTERM, unwound like Ctrl-C: workers stopped,
+temporary files removed, a dataset left for ``generate --resume``).
 """
 
 from __future__ import annotations
@@ -12,6 +14,7 @@ from __future__ import annotations
 import argparse
 import importlib
 import os
+import signal
 import sys
 import traceback
 
@@ -22,6 +25,7 @@ COMMANDS: tuple[str, ...] = (
     "shapes",
     "grasp",
     "generate",
+    "verify",
     "train",
     "evaluate",
     "compare",
@@ -34,6 +38,21 @@ COMMANDS: tuple[str, ...] = (
 )
 MODULES: dict[str, str] = {"import": "import_"}
 """Commands whose module name differs (``import`` is a Python keyword)."""
+
+
+class Terminated(KeyboardInterrupt):
+    """SIGTERM, raised in the main thread so that it unwinds as Ctrl-C does."""
+
+
+def _terminate(signum: int, frame) -> None:
+    if os.getpid() != _main_pid:  # a forked worker inherited this handler: just die
+        signal.signal(signum, signal.SIG_DFL)
+        os.kill(os.getpid(), signum)
+        return
+    raise Terminated
+
+
+_main_pid = os.getpid()
 
 
 class _Parser(argparse.ArgumentParser):
@@ -66,14 +85,21 @@ def build_parser() -> argparse.ArgumentParser:
 def main(argv: list[str] | None = None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
+    global _main_pid
+    _main_pid = os.getpid()
+    try:
+        previous = signal.signal(signal.SIGTERM, _terminate)
+    except ValueError:  # main() called from another thread: leave signals to the host
+        previous = None
     try:
         return int(args.run(args) or 0)
     except UsageError as exc:
         print(f"tactile-bullet {args.command}: error: {exc}", file=sys.stderr)
         return 2
-    except KeyboardInterrupt:
-        print("tactile-bullet: interrupted", file=sys.stderr)
-        return 130
+    except KeyboardInterrupt as exc:
+        terminated = isinstance(exc, Terminated)
+        print(f"tactile-bullet: {'terminated' if terminated else 'interrupted'}", file=sys.stderr)
+        return 143 if terminated else 130
     except BrokenPipeError:  # `tactile-bullet shapes --json | head`: the reader left
         os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
         return 0
@@ -86,6 +112,9 @@ def main(argv: list[str] | None = None) -> int:
             file=sys.stderr,
         )
         return 1
+    finally:
+        if previous is not None:
+            signal.signal(signal.SIGTERM, previous)
 
 
 if __name__ == "__main__":  # pragma: no cover

@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 
 from .common import emit_json
+from .data_args import add_allow_partial, read_data, report_skipped
 
 
 def add_parser(sub) -> None:
@@ -17,6 +18,7 @@ def add_parser(sub) -> None:
     )
     parser.add_argument("--model", required=True, help="model file written by `train`")
     parser.add_argument("--data", required=True, metavar="DIR", help="dataset folder or .npz")
+    add_allow_partial(parser)
     parser.add_argument(
         "--report", metavar="DIR", help="write report.json and PNG figures into this folder"
     )
@@ -27,11 +29,13 @@ def add_parser(sub) -> None:
 def run(args: argparse.Namespace) -> int:
     from ..models import load_model
     from ..reports import report_dir, summary_text, write_evaluation_report
-    from ..workflow import evaluate, records_from
+    from ..workflow import evaluate
 
     model = load_model(args.model)
     report = report_dir(args.report) if args.report else None
-    doc = evaluate(model, records_from(args.data))
+    loaded = read_data(args.data, args)
+    doc = evaluate(model, loaded.records)
+    report_skipped(loaded, args, doc)
     if report is not None:
         written = write_evaluation_report(doc, report)
         doc["report"] = str(report)

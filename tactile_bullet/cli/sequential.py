@@ -5,6 +5,8 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
+from .data_args import add_allow_partial
+
 
 def add_parser(sub) -> None:
     parser = sub.add_parser(
@@ -15,6 +17,7 @@ def add_parser(sub) -> None:
         "disturbance-matrix figures. Needs the torch extra.",
     )
     parser.add_argument("--data", type=Path, help="a dataset (generate --preset sequential)")
+    add_allow_partial(parser)
     parser.add_argument("--synthetic", action="store_true", help="make_classification data")
     parser.add_argument(
         "--descriptor", default="signature+contact-normals",

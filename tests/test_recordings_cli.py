@@ -43,6 +43,8 @@ def test_import_writes_a_dataset_that_evaluate_and_train_accept(tmp_path, capsys
     doc = _json(capsys, ["import", str(root / "test.bag"), "--out", str(tmp_path / "imp")])
     assert doc["records"] == len(files["test"])
     assert doc["labels"] == {s: sum(r.shape == s for r in files["test"]) for s in doc["labels"]}
+    assert main(["verify", "--data", str(tmp_path / "imp")]) == 0  # a sound dataset
+    capsys.readouterr()
     model = str(root / "model.npz")
     imported = _json(capsys, ["evaluate", "--model", model, "--data", str(tmp_path / "imp")])
     original = _json(capsys, ["evaluate", "--model", model, "--data", str(root / "test")])

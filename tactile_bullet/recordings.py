@@ -110,6 +110,13 @@ def split_name(name: str) -> tuple[str, str] | None:
     return (match["prefix"] or "", joint) if joint in _KNOWN else None
 
 
+def is_hand_message(names: Sequence[str]) -> bool:
+    """Whether a joint-state message is the hand's: it names at least one Shadow joint.
+    Messages of other robots on the same topic (an arm's, on a shared /joint_states) are
+    skipped; a hand message with an unknown name is an error."""
+    return any(split_name(n) is not None for n in names)
+
+
 def canonical_joint(name: str) -> str | None:
     """``rh_FFJ3`` -> ``FFJ3``; None for a name that is no Shadow joint."""
     parts = split_name(name)
@@ -398,6 +405,7 @@ def read_bag(
             wanted = [c for c in reader.connections if c.topic in (topic, marker_topic)]
             maps: dict[tuple[str, ...], JointMap] = {}
             stamps, receive, pos_rows, eff_rows, events, keys = [], [], [], [], [], []
+            others: set[tuple[str, ...]] = set()
             has_eff = True
             current = None
             for conn, t_recv, raw in reader.messages(connections=wanted):
@@ -407,6 +415,9 @@ def read_bag(
                     continue
                 names = tuple(msg.name)
                 if current is None or names != current.names:
+                    if names in others or not is_hand_message(names):
+                        others.add(names)  # another robot on the same topic (an arm)
+                        continue
                     current = maps.get(names)
                     if current is None:
                         current = maps[names] = JointMap(names, calibration, where)
@@ -431,7 +442,8 @@ def read_bag(
             f"{where} is not a readable bag ({text[0] if text else type(exc).__name__})"
         ) from None
     if not pos_rows:
-        raise UsageError(f"{where}: topic {topic} holds no messages")
+        what = "no Shadow hand joints" if others else "no messages"
+        raise UsageError(f"{where}: topic {topic} holds {what}")
     stamp_ns = np.array(stamps, np.int64)
     recv_ns = np.array(receive, np.int64)
     if np.all(stamp_ns == 0):

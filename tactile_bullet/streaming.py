@@ -33,7 +33,14 @@ import numpy as np
 from .calibration import Calibration
 from .errors import UsageError
 from .hand import JOINT_NAMES
-from .recordings import GAP_S, GraspSegmenter, JointMap, closure, record_from_samples
+from .recordings import (
+    GAP_S,
+    GraspSegmenter,
+    JointMap,
+    closure,
+    is_hand_message,
+    record_from_samples,
+)
 
 TRIM_AT = 4096
 """Samples kept before a grasp starts are trimmed once the buffer holds this many."""
@@ -46,7 +53,7 @@ class Identifier:
         self.model = model
         self.calibration = calibration
         self._segmenter = GraspSegmenter(gap_s)
-        self._maps: dict[tuple[str, ...], JointMap] = {}
+        self._maps: dict[tuple[str, ...], JointMap | None] = {}
         self._map: JointMap | None = None
         self._names: tuple[str, ...] | None = None
         self._classes = [str(c) for c in model.classes]
@@ -84,14 +91,20 @@ class Identifier:
 
     # --- input ------------------------------------------------------------------------------
 
-    def _joint_map(self, names: Sequence[str]) -> JointMap:
+    def _joint_map(self, names: Sequence[str]) -> JointMap | None:
+        """The map of a name list (cached); None for another robot's message."""
         key = names if isinstance(names, tuple) else tuple(names)
         if key != self._names:
-            jmap = self._maps.get(key)
-            if jmap is None:
+            if key in self._maps:
+                jmap = self._maps[key]
+            elif is_hand_message(key):
                 jmap = self._maps[key] = JointMap(key, self.calibration, "joint state")
+            else:
+                jmap = self._maps[key] = None
+            if jmap is None:
+                return None
             self._map, self._names = jmap, key
-        return self._map  # type: ignore[return-value]
+        return self._map
 
     def update(
         self,
@@ -102,8 +115,11 @@ class Identifier:
     ) -> None:
         """One joint-state message: time ``t`` (s, any origin), published ``names``,
         ``positions`` (rad) and optionally ``efforts`` (N m, same order; empty or None when
-        the hand publishes none)."""
+        the hand publishes none). A message naming no Shadow joint (an arm sharing the
+        topic) is ignored."""
         jmap = self._joint_map(names)
+        if jmap is None:
+            return
         t = float(t)
         raw = np.asarray(positions, dtype=float)
         if raw.shape != (len(jmap.names),):

@@ -319,6 +319,8 @@ def test_streaming_refuses_bad_messages(model):
     with pytest.raises(UsageError, match="unknown joint names: elbow"):
         ident.update(0.0, [*names, "elbow"], np.zeros(len(names) + 1))
     ident.update(1.0, names, np.zeros(len(names)))
+    ident.update(1.5, ["shoulder_pan_joint", "elbow_joint"], [0.1, 0.2])  # an arm: ignored
+    assert ident.samples == 1
     with pytest.raises(UsageError, match="backwards"):
         ident.update(0.5, names, np.zeros(len(names)))
     with pytest.raises(UsageError, match="positions"):
@@ -352,7 +354,7 @@ def test_parquet_without_pyarrow_names_the_extra(tmp_path):
 def test_a_hand_written_ros2_bag_with_bool_markers_and_j0_names(tmp_path, simulated):
     """A bag as a lab's own recorder writes it (rosbags' writer, not ``export``): lh_ names
     with the coupled J0, no efforts, a std_msgs/Bool 'grasping' topic, idle samples between
-    grasps, stamps in the header."""
+    grasps, stamps in the header, an arm's joint states on the same topic (skipped)."""
     from rosbags.rosbag2 import Writer
     from rosbags.typesys import Stores, get_typestore
 
@@ -377,6 +379,10 @@ def test_a_hand_written_ros2_bag_with_bool_markers_and_j0_names(tmp_path, simula
             positions = published_values(rec, coupled=True)[0]
             for _ in range(5):  # idle, open hand, before the marker
                 state(np.zeros(len(names)))
+                arm = JointState(header=Header(stamp=Time(sec=1, nanosec=0), frame_id=""),
+                                 name=["shoulder_pan_joint"], position=np.ones(1),
+                                 velocity=np.zeros(0), effort=np.zeros(0))  # fmt: skip
+                writer.write(js, t_ns + 1, ts.serialize_cdr(arm, JointState.__msgtype__))
                 t_ns += 10**7
             writer.write(mk, t_ns, ts.serialize_cdr(Bool(data=True), Bool.__msgtype__))
             for q in positions:

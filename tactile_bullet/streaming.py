@@ -35,6 +35,7 @@ from .errors import UsageError
 from .hand import JOINT_NAMES
 from .recordings import (
     GAP_S,
+    STILL_TOL,
     GraspSegmenter,
     JointMap,
     closure,
@@ -132,16 +133,25 @@ class Identifier:
         if efforts is None or len(efforts) == 0:
             e = np.zeros(len(JOINT_NAMES))
             self._no_efforts = True
+        elif len(efforts) != len(jmap.names):
+            raise UsageError(f"{len(jmap.names)} joint names but {len(efforts)} efforts")
         else:
             e = jmap.efforts(np.asarray(efforts, dtype=float))
-        index = self._offset + len(self._t)
-        self._t.append(t)
-        self._q.append(q)
-        self._e.append(e)
+        seg = self._segmenter
+        c = float(closure(q))
+        if seg.closing and seg.settled and abs(c - seg.c_ref) <= STILL_TOL:
+            # held: the last sample follows the hand instead of the buffer growing for as
+            # long as the object is held (result() stays as fast as at the grasp's end)
+            index = self._offset + len(self._t) - 1
+            self._t[-1], self._q[-1], self._e[-1] = t, q, e
+        else:
+            index = self._offset + len(self._t)
+            self._t.append(t)
+            self._q.append(q)
+            self._e.append(e)
         self._count += 1
         self._cache = None
-        seg = self._segmenter
-        done = seg.push(index, t, float(closure(q)))
+        done = seg.push(index, t, c)
         if done is not None:
             self._keep(done)
         if not seg.closing and len(self._t) > TRIM_AT:

@@ -311,6 +311,21 @@ def test_streaming_silence_ends_a_grasp_and_finish_ends_the_last(model, test_rec
     assert ident.result()["shape"] == workflow.predict(model, [b])[0]
 
 
+def test_streaming_keeps_one_sample_while_the_object_is_held(model, test_records):
+    from tactile_bullet import Identifier
+
+    ident = Identifier(model)
+    rec = test_records[0]
+    _, _ = _replay(ident, rec, hold_s=0.3)
+    kept = ident.result()["samples"]
+    _replay(ident, dataclasses.replace(rec, time=rec.time[-1:], angles=rec.angles[-1:],
+                                       efforts=rec.efforts[-1:]), t0=0.31, hold_s=60.0)  # fmt: skip
+    out = ident.result()
+    assert out["grasp_over"] and out["samples"] == kept
+    assert ident.current_record().time[-1] > 60.0  # the kept sample followed the held hand
+    assert out["shape"] == workflow.predict(model, [rec])[0]
+
+
 def test_streaming_refuses_bad_messages(model):
     from tactile_bullet import Identifier
 

@@ -5,7 +5,6 @@ Shadow hand, segmentation, calibration, and the streaming identifier."""
 from __future__ import annotations
 
 import dataclasses
-import importlib.util
 import math
 
 import numpy as np
@@ -359,59 +358,27 @@ def test_calibration_default_is_identity():
     assert scale.tolist() == [1.0] and offset.tolist() == [0.0]
 
 
-@pytest.mark.skipif(importlib.util.find_spec("pyarrow") is not None, reason="pyarrow installed")
-def test_parquet_without_pyarrow_names_the_extra(tmp_path):
+def test_parquet_without_pyarrow_names_the_extra(tmp_path, monkeypatch, capsys):
+    import sys
+
+    from cli_helpers import run_error
+
+    monkeypatch.setitem(sys.modules, "pyarrow", None)  # as if not installed
+    monkeypatch.setitem(sys.modules, "pyarrow.parquet", None)
     (tmp_path / "r.parquet").write_bytes(b"PAR1")
-    with pytest.raises(UsageError, match=r"tactile-bullet\[parquet\]"):
-        read_recording(tmp_path / "r.parquet")
+    err = run_error(capsys, ["import", str(tmp_path / "r.parquet"), "--out", str(tmp_path / "o")])
+    assert "tactile-bullet[parquet]" in err and not (tmp_path / "o").exists()
 
 
-def test_a_hand_written_ros2_bag_with_bool_markers_and_j0_names(tmp_path, simulated):
-    """A bag as a lab's own recorder writes it (rosbags' writer, not ``export``): lh_ names
-    with the coupled J0, no efforts, a std_msgs/Bool 'grasping' topic, idle samples between
-    grasps, stamps in the header, an arm's joint states on the same topic (skipped)."""
-    from rosbags.rosbag2 import Writer
-    from rosbags.typesys import Stores, get_typestore
+def test_bags_without_rosbags_name_the_extra(tmp_path, monkeypatch, capsys, simulated):
+    import sys
 
-    from tactile_bullet.export import published_values
+    from cli_helpers import run_error
 
-    ts = get_typestore(Stores.ROS2_HUMBLE)
-    Header, Time = ts.types["std_msgs/msg/Header"], ts.types["builtin_interfaces/msg/Time"]
-    JointState, Bool = ts.types["sensor_msgs/msg/JointState"], ts.types["std_msgs/msg/Bool"]
-    names = ["lh_" + n for n in published_names(coupled=True)]
-    path, t_ns = tmp_path / "lab", 5 * 10**9
-    with Writer(path, version=9) as writer:
-        js = writer.add_connection("/hand/joint_states", JointState.__msgtype__, typestore=ts)
-        mk = writer.add_connection("/grasping", Bool.__msgtype__, typestore=ts)
-
-        def state(q):
-            stamp = Time(sec=t_ns // 10**9, nanosec=t_ns % 10**9)
-            msg = JointState(header=Header(stamp=stamp, frame_id=""), name=names,
-                             position=q, velocity=np.zeros(0), effort=np.zeros(0))  # fmt: skip
-            writer.write(js, t_ns, ts.serialize_cdr(msg, JointState.__msgtype__))
-
-        for rec in simulated:
-            positions = published_values(rec, coupled=True)[0]
-            for _ in range(5):  # idle, open hand, before the marker
-                state(np.zeros(len(names)))
-                arm = JointState(header=Header(stamp=Time(sec=1, nanosec=0), frame_id=""),
-                                 name=["shoulder_pan_joint"], position=np.ones(1),
-                                 velocity=np.zeros(0), effort=np.zeros(0))  # fmt: skip
-                writer.write(js, t_ns + 1, ts.serialize_cdr(arm, JointState.__msgtype__))
-                t_ns += 10**7
-            writer.write(mk, t_ns, ts.serialize_cdr(Bool(data=True), Bool.__msgtype__))
-            for q in positions:
-                state(np.ascontiguousarray(q))
-                t_ns += 10**7
-            writer.write(mk, t_ns - 10**7, ts.serialize_cdr(Bool(data=False), Bool.__msgtype__))
-    with pytest.raises(UsageError, match="no topic /joint_states"):
-        read_recording(path)
-    grasps = read_recording(path, topic="/hand/joint_states", marker="/grasping", shape="cup")
-    assert len(grasps) == 2
-    for g, rec in zip(grasps, simulated, strict=True):
-        assert g.record.shape == "cup" and "no_efforts" in g.record.flags
-        assert g.record.time.size == rec.time.size
-        np.testing.assert_allclose(g.record.fci_angles()[0], rec.fci_angles()[0], atol=1e-12)
-        np.testing.assert_allclose(
-            g.record.fci_angles().sum(axis=0), rec.fci_angles().sum(axis=0), atol=1e-12
-        )
+    export(simulated[:1], tmp_path / "r.bag", "bag")
+    for name in ("rosbags", "rosbags.highlevel", "rosbags.rosbag1", "rosbags.typesys"):
+        monkeypatch.setitem(sys.modules, name, None)  # as if not installed
+    err = run_error(capsys, ["import", str(tmp_path / "r.bag"), "--out", str(tmp_path / "o")])
+    assert "tactile-bullet[ros]" in err and not (tmp_path / "o").exists()
+    export(simulated[:1], tmp_path / "r.csv", "csv")  # CSV needs no extra
+    assert len(read_recording(tmp_path / "r.csv")) == 1

@@ -186,12 +186,16 @@ def test_coupled_bag_keeps_both_signature_lines(tmp_path, simulated):
 
 
 @pytest.mark.parametrize("fmt", ("bag", "mcap", "csv"))
-def test_reimported_grasps_classify_as_the_originals(tmp_path, model, test_records, fmt):
+def test_reimported_grasps_classify_as_the_originals(tmp_path, model, simulated, test_records, fmt):
+    records = [*simulated, *test_records]
     out = _out(tmp_path, fmt)
-    export(test_records, out, fmt)
+    export(records, out, fmt)
     answers = identify_grasps(model, read_recording(out))
-    assert [a["shape"] for a in answers] == list(workflow.predict(model, test_records))
-    assert [a["label"] for a in answers] == [r.shape for r in test_records]
+    assert [a["shape"] for a in answers] == list(workflow.predict(model, records))
+    assert [a["label"] for a in answers] == [r.shape for r in records]
+    for a, rec in zip(answers, records, strict=True):
+        expected = workflow.identify(model, rec)["probabilities"]
+        assert a["probabilities"] == pytest.approx(expected, abs=1e-9)
 
 
 def test_j0_only_recordings_classify_as_their_split(tmp_path, model, test_records):

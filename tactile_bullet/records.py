@@ -19,6 +19,8 @@ from .errors import UsageError
 from .hand import FCI_JOINTS, FINGERS, JOINT_NAMES, LONG_FINGERS
 
 RECORD_FORMAT = 1
+SOURCES: tuple[str, ...] = ("simulated", "recorded")
+"""Where a record came from: the simulator, or a real hand's recording (recordings.py)."""
 
 MAX_OFFSET_M = 1.0
 """Largest object offset (m) along any palm axis: a metre is far beyond the hand's reach (an
@@ -136,6 +138,10 @@ class GraspRecord:
     Contacts are those present at the end of the grasp, in the palm frame: position on the
     object, the object's outward normal there, and the normal force (N). ``contact_link`` holds
     the hand link name of each contact. Units: s, rad, N m, m, N.
+
+    ``source`` is "simulated" or "recorded" (a real hand's joint states, read by
+    ``recordings.py``: no contacts, pose and controller unknown, ``shape`` the user's label or
+    "unknown").
     """
 
     shape: str
@@ -155,6 +161,13 @@ class GraspRecord:
     flags: tuple[str, ...] = ()
     steps: int = 0
     joint_names: tuple[str, ...] = field(default=JOINT_NAMES)
+    source: str = "simulated"
+
+    def __post_init__(self) -> None:
+        if self.source not in SOURCES:
+            raise UsageError(
+                f"record source must be one of {', '.join(SOURCES)}, got {self.source!r}"
+            )
 
     @property
     def sim_time_s(self) -> float:
@@ -190,7 +203,9 @@ class GraspRecord:
         return np.isin(self.contact_link, FINGER_LINKS[finger])
 
     def metadata(self) -> dict:
-        return {
+        """JSON-ready metadata; ``source`` appears only for recorded grasps, so simulated
+        records (and datasets) stay byte-identical to those written before it existed."""
+        meta = {
             "format": RECORD_FORMAT,
             "shape": self.shape,
             "params": dict(self.params),
@@ -202,6 +217,9 @@ class GraspRecord:
             "steps": int(self.steps),
             "joint_names": list(self.joint_names),
         }
+        if self.source != "simulated":
+            meta["source"] = self.source
+        return meta
 
     def arrays(self) -> dict[str, np.ndarray]:
         return {
@@ -248,6 +266,7 @@ def record_from_parts(meta: Mapping, arrays: Mapping[str, np.ndarray]) -> GraspR
             flags=tuple(meta["flags"]),
             steps=int(meta["steps"]),
             joint_names=tuple(meta["joint_names"]),
+            source=str(meta.get("source", "simulated")),
         )
     except UsageError:
         raise

@@ -70,11 +70,18 @@ class ControllerSettings:
     ~2.5 deg in torque mode, but that shift costs the signature accuracy on cylinder vs
     hyperboloid (``tactile-bullet demo``: 96.7% -> 85.0%), so it is off by default. The thumb
     always skips its free sweep, which leaves the long fingers' angles unchanged."""
+    friction: float = 0.8
+    """Lateral (Coulomb) friction coefficient of the hand's links and the object. A physics
+    knob, not Algorithm 1's: the benchmark's simulator-shift protocol varies it."""
+    phalanx_scale: float = 1.0
+    """Length factor of every finger's and the thumb's phalanges (joint spacing and link
+    geometry): 1.03 is another hand of the same model with 3% longer fingers."""
 
     def __post_init__(self) -> None:
         if self.mode not in ("torque", "contact"):
             raise UsageError(f"mode must be 'torque' or 'contact', got {self.mode!r}")
-        for name in ("delta", "thres_t", "max_time", "timestep", "sample_rate", "motor_force"):
+        for name in ("delta", "thres_t", "max_time", "timestep", "sample_rate", "motor_force",
+                     "friction"):  # fmt: skip
             value = getattr(self, name)
             if not (isinstance(value, int | float) and math.isfinite(value) and value > 0):
                 raise UsageError(f"controller {name} must be a positive number, got {value!r}")
@@ -84,6 +91,24 @@ class ControllerSettings:
             raise UsageError(f"controller preshape must be true or false, got {self.preshape!r}")
         if int(self.control_every) < 1 or int(self.settle_steps) < 0:
             raise UsageError("control_every must be >= 1 and settle_steps >= 0")
+        scale = self.phalanx_scale
+        if isinstance(scale, bool) or not isinstance(scale, int | float) or not 0.8 <= scale <= 1.2:
+            raise UsageError(f"controller phalanx_scale must be from 0.8 to 1.2, got {scale!r}")
+
+
+PHYSICS_DEFAULTS: dict[str, float] = {"friction": 0.8, "phalanx_scale": 1.0}
+"""Physics fields of ControllerSettings added after records were first written: left out of
+the saved form while at these values, so older records, dataset manifests (compared on
+``--resume``) and their checksums stay byte-identical."""
+
+
+def controller_dict(controller: ControllerSettings) -> dict:
+    """The settings as saved in records and manifests (see :data:`PHYSICS_DEFAULTS`)."""
+    out = asdict(controller)
+    for key, default in PHYSICS_DEFAULTS.items():
+        if out[key] == default:
+            del out[key]
+    return out
 
 
 @dataclass(frozen=True, eq=False)
@@ -153,7 +178,7 @@ class GraspRecord:
             "shape": self.shape,
             "params": dict(self.params),
             "pose": asdict(self.pose),
-            "controller": asdict(self.controller),
+            "controller": controller_dict(self.controller),
             "seed": int(self.seed),
             "fingers_in_contact": list(self.fingers_in_contact),
             "flags": list(self.flags),

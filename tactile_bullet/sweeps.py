@@ -28,14 +28,14 @@ from __future__ import annotations
 import math
 import tomllib
 from collections.abc import Mapping, Sequence
-from dataclasses import asdict, dataclass, field, fields
+from dataclasses import dataclass, field, fields
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
 from .errors import UsageError
-from .records import ControllerSettings, Pose
+from .records import ControllerSettings, Pose, controller_dict
 
 Dimension = tuple[float, ...] | dict[str, float]
 """A list of values, or {"min", "max"} (+ "steps" in grid mode)."""
@@ -126,7 +126,7 @@ class Sweep:
             "name": self.name,
             "mode": self.mode,
             "samples": self.samples,
-            "controller": asdict(self.controller),
+            "controller": controller_dict(self.controller),
             "shapes": [_shape_dict(s) for s in self.shapes],
         }
 

@@ -13,6 +13,12 @@ degrees (the calibration bias) plus sample-to-sample jitter, and its torque read
 The final angles are the last sample's angles: the record's ``final_angles`` get the same bias
 and their own draw of noise (the final state is one more reading of the encoders), so
 descriptors that read the final configuration and those that read the series see one hand.
+Contact normals are reported in the palm frame, which a real hand computes from the fingertip
+sensor through the forward kinematics of the *measured* angles: each long finger's contact
+normals are turned by that finger's final-angle errors (about the flexion axis, palm x, by the
+sum of the errors of the flexion joints between the palm and the touching link; about the palm
+normal by the J4 error). Thumb contacts and contact positions are left as simulated (the
+thumb's joint axes are not parallel; no built-in descriptor reads positions).
 Joints the simulator holds fixed (the welded wrist, reported at 0) are perturbed like the
 others: a real hand reports them through the same sensors.
 
@@ -95,13 +101,50 @@ def perturb(
         if model.effort_sigma
         else efforts
     )
+    new_final = final + offset + noise_final
     return replace(
         record,
         angles=angles + offset + noise_series if angles.size else angles,
-        final_angles=final + offset + noise_final,
+        final_angles=new_final,
         efforts=noisy_efforts,
+        contact_normal=turned_normals(record, new_final - final),
         flags=tuple(record.flags) + ("perturbed",),
     )
+
+
+def _link_joints() -> dict[str, tuple[tuple[str, ...], str]]:
+    """Long-finger link -> (flexion joints between the palm and it, abduction joint)."""
+    from .hand import FINGER_LINKS, LONG_FINGERS
+
+    out = {}
+    for f in LONG_FINGERS:
+        up = f.upper()
+        chain = {"proximal": (3,), "middle": (3, 2), "distal": (3, 2, 1), "tip": (3, 2, 1)}
+        for link in FINGER_LINKS[f]:
+            for part, joints in chain.items():
+                if link == f"{f}{part}":
+                    out[link] = (tuple(f"{up}J{j}" for j in joints), f"{up}J4")
+    return out
+
+
+def turned_normals(record: GraspRecord, errors: np.ndarray) -> np.ndarray:
+    """Contact normals as forward kinematics with final-angle ``errors`` (rad, per joint in
+    ``record.joint_names`` order) would report them (module doc)."""
+    normals = np.array(record.contact_normal, dtype=float).reshape(-1, 3)
+    if not len(normals):
+        return normals
+    table = _link_joints()
+    index = {n: i for i, n in enumerate(record.joint_names)}
+    for row, link in enumerate(np.asarray(record.contact_link).astype(str)):
+        if link not in table:
+            continue
+        flexion, abduction = table[link]
+        a = float(sum(errors[index[j]] for j in flexion if j in index))
+        b = -float(errors[index[abduction]]) if abduction in index else 0.0
+        rot_x = np.array([[1, 0, 0], [0, np.cos(a), -np.sin(a)], [0, np.sin(a), np.cos(a)]])
+        rot_y = np.array([[np.cos(b), 0, np.sin(b)], [0, 1, 0], [-np.sin(b), 0, np.cos(b)]])
+        normals[row] = rot_y @ rot_x @ normals[row]
+    return normals
 
 
 def perturb_all(records, model: SensorModel, seed: int = 0) -> list[GraspRecord]:

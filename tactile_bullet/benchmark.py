@@ -41,20 +41,22 @@ CONFIG = ".benchmark-config.json"
 OUTPUTS = ("benchmark.json", "noise.png", "shift.png", "table.txt", "data", CONFIG)
 
 
-def default_descriptors(quick: bool) -> list[str]:
-    """Every installed descriptor (the cheap built-ins with ``quick``)."""
+def default_descriptors(quick: bool | str) -> list[str]:
+    """Every installed descriptor (the cheap built-ins at the quick and tiny scales)."""
     from .plugins import descriptor_names
 
     names = descriptor_names()
-    return [n for n in QUICK_DESCRIPTORS if n in names] if quick else list(names)
+    small = P.scale_of(quick) != "full"
+    return [n for n in QUICK_DESCRIPTORS if n in names] if small else list(names)
 
 
-def default_classifiers(quick: bool) -> list[str]:
-    """Every installed classifier (svm and knn with ``quick``)."""
+def default_classifiers(quick: bool | str) -> list[str]:
+    """Every installed classifier (svm and knn at the quick and tiny scales)."""
     from .plugins import classifier_names
 
     names = classifier_names()
-    return [n for n in QUICK_CLASSIFIERS if n in names] if quick else list(names)
+    small = P.scale_of(quick) != "full"
+    return [n for n in QUICK_CLASSIFIERS if n in names] if small else list(names)
 
 
 def check_names(descriptors: Sequence[str], classifiers: Sequence[str], trainings) -> None:
@@ -118,8 +120,7 @@ def simulate_sets(
     done = {}
     for spec in specs:
         path = cache / spec.name
-        complete = _complete(path)
-        if not complete:
+        if not _complete(path, spec):
             log(f"simulating {spec.name} ({len(spec.sweep().tasks(spec.seed))} grasps)")
             resume = (path / MANIFEST).exists()
             generate(spec.sweep(), path, workers=workers, resume=resume, seed=spec.seed,
@@ -128,14 +129,20 @@ def simulate_sets(
     return done
 
 
-def _complete(path: Path) -> bool:
+def _complete(path: Path, spec: P.SetSpec) -> bool:
+    """Whether ``path`` holds every grasp of ``spec`` (anything else goes to ``generate``,
+    which resumes a partial set and refuses a different one)."""
     from .dataset import MANIFEST
 
     try:
         data = json.loads((path / MANIFEST).read_text())
-    except (OSError, ValueError):
+        config = data["config"]
+        done = sum(s["records"] + s["failed"] for s in data["shards"])
+        tasks = int(data["tasks"])
+    except (OSError, ValueError, KeyError, TypeError):
         return False
-    return sum(s["records"] + s["failed"] for s in data["shards"]) >= int(data["tasks"])
+    same = config.get("sweep") == spec.sweep().to_dict() and config.get("seed") == spec.seed
+    return same and done >= tasks
 
 
 def load_set(path: str | os.PathLike) -> tuple[list[GraspRecord], int]:
@@ -159,14 +166,15 @@ def run_benchmark(
     classifiers: Sequence[str] | None = None,
     trainings: Sequence[str] = TRAININGS,
     *,
-    quick: bool = False,
+    quick: bool | str = False,
     workers: int = 2,
     seed: int = 0,
     cache: str | os.PathLike | None = None,
     show: bool = False,
     log: Callable[[str], None] | None = None,
 ) -> dict[str, Any]:
-    """Run the benchmark (module doc); returns the ``benchmark.json`` document."""
+    """Run the benchmark (module doc); returns the ``benchmark.json`` document. ``quick``:
+    True/False (the --quick flag) or a scale name of ``protocols.SCALES``."""
     from .plugins import compatible, get_classifier, get_descriptor
     from .reports import write_json, write_text_atomic
     from .robust import augment
@@ -175,6 +183,7 @@ def run_benchmark(
     say = log or (lambda _msg: None)
     started = time.perf_counter()
     names = P.resolve(protocols)
+    scale = P.scale_of(quick)
     descriptors = list(descriptors or default_descriptors(quick))
     classifiers = list(classifiers or default_classifiers(quick))
     trainings = list(dict.fromkeys(trainings))
@@ -185,11 +194,11 @@ def run_benchmark(
     cache_dir = Path(cache) if cache is not None else out / "data"
     config = {
         "protocols": names, "descriptors": descriptors, "classifiers": classifiers,
-        "trainings": trainings, "quick": bool(quick), "seed": int(seed),
+        "trainings": trainings, "scale": scale, "seed": int(seed),
     }  # fmt: skip
     prepare_out(out, config)
-    table = P.protocols(quick)
-    specs = P.needed_sets(names, quick)
+    table = P.protocols(scale)
+    specs = P.needed_sets(names, scale)
     simulate_sets(specs, cache_dir, int(workers), show, say)
 
     sets: dict[str, list[GraspRecord]] = {}

@@ -135,16 +135,28 @@ def shifted(base: ControllerSettings, s: float) -> ControllerSettings:
     )
 
 
-def _sizes(quick: bool) -> tuple[int, int, int]:
-    """(train, test, shift-test) grasps per shape."""
-    return (8, 4, 2) if quick else (24, 12, 4)
+SCALES: dict[str, tuple[int, int, int]] = {"full": (24, 12, 4), "quick": (8, 4, 2),
+                                           "tiny": (5, 2, 1)}  # fmt: skip
+"""Grasps per shape (train, test, shift-test) of each scale: ``full`` the benchmark's, ``quick``
+its 2-minute form, ``tiny`` the pytest comparison suite's (``testing.py``)."""
 
 
-def sets(quick: bool = False) -> dict[str, SetSpec]:
-    """Every set the protocols read, by name (quick and full ones have distinct names, so
-    both can share one cache folder)."""
-    n_train, n_test, n_shift = _sizes(quick)
-    tag = "quick-" if quick else ""
+def scale_of(quick: bool | str) -> str:
+    """``True``/``False`` (the --quick flag) or a scale name -> the scale name."""
+    if isinstance(quick, str):
+        if quick not in SCALES:
+            raise UsageError(f"unknown scale {quick!r} (known: {', '.join(SCALES)})")
+        return quick
+    return "quick" if quick else "full"
+
+
+def sets(quick: bool | str = False) -> dict[str, SetSpec]:
+    """Every set the protocols read, by name (each scale's names are distinct, so all can
+    share one cache folder)."""
+    scale = scale_of(quick)
+    n_train, n_test, n_shift = SCALES[scale]
+    tag = "" if scale == "full" else f"{scale}-"
+    quick = scale != "full"
     base = ControllerSettings()
     out: list[SetSpec] = [
         SetSpec(f"{tag}demo-train", n_train, TRAIN_FRACTIONS, TRAIN_X, TRAIN_Z, seed=1),
@@ -181,8 +193,8 @@ def sets(quick: bool = False) -> dict[str, SetSpec]:
     return {s.name: s for s in out}
 
 
-def _shift_fractions(quick: bool) -> tuple[float, ...]:
-    return (SHIFT_HEADLINE,) if quick else (0.1, SHIFT_HEADLINE, 0.3)
+def _shift_fractions(quick: bool | str) -> tuple[float, ...]:
+    return (SHIFT_HEADLINE,) if scale_of(quick) != "full" else (0.1, SHIFT_HEADLINE, 0.3)
 
 
 NOISE_LEVELS: tuple[tuple[str, SensorModel, str | None, float | None, bool], ...] = (
@@ -199,16 +211,20 @@ NOISE_LEVELS: tuple[tuple[str, SensorModel, str | None, float | None, bool], ...
 )
 """sensor-noise levels: (name, model, curve, x on it in deg, headline)."""
 QUICK_NOISE = ("sigma 1 deg", "bias 3 deg", "sigma 1 deg + bias 3 deg")
+TINY_NOISE = ("sigma 1 deg + bias 3 deg",)
 
 
-def protocols(quick: bool = False) -> dict[str, Protocol]:
-    """The five protocols, by name, in their full or ``quick`` form."""
-    tag = "quick-" if quick else ""
+def protocols(quick: bool | str = False) -> dict[str, Protocol]:
+    """The five protocols, by name, at a scale (``quick`` True/False or a scale name)."""
+    scale = scale_of(quick)
+    tag = "" if scale == "full" else f"{scale}-"
+    quick = scale != "full"
+    kept = TINY_NOISE if scale == "tiny" else QUICK_NOISE
     test = f"{tag}demo-test"
     noise = [Level("clean", (test,), x=0.0, series="clean")] + [
         Level(name, (test,), model, x, head, series)
         for name, model, series, x, head in NOISE_LEVELS
-        if not quick or name in QUICK_NOISE
+        if not quick or name in kept
     ]
     shift = [Level("none", (test,), x=0.0, series="every knob")]
     for s in _shift_fractions(quick):
@@ -279,7 +295,7 @@ def resolve(names: str | Sequence[str] | None) -> list[str]:
     return [n for n in PROTOCOL_NAMES if n in items]
 
 
-def needed_sets(names: Sequence[str], quick: bool = False) -> list[SetSpec]:
+def needed_sets(names: Sequence[str], quick: bool | str = False) -> list[SetSpec]:
     """The sets the named protocols read, each once, in a fixed order."""
     table = protocols(quick)
     wanted: list[str] = []

@@ -6,6 +6,7 @@ from __future__ import annotations
 import argparse
 import sys
 
+from ..errors import UsageError
 from .common import emit_json, show_progress
 
 
@@ -33,7 +34,13 @@ def add_parser(sub) -> None:
     )
     parser.add_argument(
         "--quick", action="store_true",
-        help="small sets, headline levels, svm and knn on the cheap descriptors (~2 min)",
+        help="small sets, headline levels, svm and knn on the cheap descriptors (~2 min); "
+        "the same as --scale quick",
+    )  # fmt: skip
+    parser.add_argument(
+        "--scale", choices=("full", "quick", "tiny"),
+        help="set sizes: full (24/12 grasps per shape), quick (8/4), tiny (5/2, the pytest "
+        "comparison suite's)",
     )  # fmt: skip
     parser.add_argument("--workers", type=int, default=2, help="simulation processes")
     parser.add_argument("--seed", type=int, default=0, help="seed of the perturbations")
@@ -45,18 +52,17 @@ def run(args: argparse.Namespace) -> int:
     from ..benchmark import default_classifiers, default_descriptors, run_benchmark
     from .compare import name_list
 
-    descriptors = name_list(
-        args.descriptor, "--descriptor", lambda: default_descriptors(args.quick)
-    )
-    classifiers = name_list(
-        args.classifier, "--classifier", lambda: default_classifiers(args.quick)
-    )
+    if args.scale and args.quick and args.scale != "quick":
+        raise UsageError(f"--quick contradicts --scale {args.scale}")
+    scale = args.scale or ("quick" if args.quick else "full")
+    descriptors = name_list(args.descriptor, "--descriptor", lambda: default_descriptors(scale))
+    classifiers = name_list(args.classifier, "--classifier", lambda: default_classifiers(scale))
     trainings = name_list(args.training, "--training", lambda: ())
     show = show_progress(args.json)
     log = (lambda msg: print(msg, file=sys.stderr)) if show else None
     doc = run_benchmark(
         args.out, args.protocol, descriptors, classifiers, trainings,
-        quick=args.quick, workers=args.workers, seed=args.seed, cache=args.cache,
+        quick=scale, workers=args.workers, seed=args.seed, cache=args.cache,
         show=show, log=log,
     )  # fmt: skip
     if args.json:

@@ -316,6 +316,8 @@ def plot_curves(rows, table: Mapping[str, P.Protocol], out: Path) -> list[Path]:
         protocol = table[name]
         series = [s for s in dict.fromkeys(lv.series for lv in protocol.levels)
                   if s and s != "clean"]  # fmt: skip
+        if not series:  # only headline levels (the tiny scale): no curve to draw
+            continue
         plt = _pyplot()
         fig, axes = plt.subplots(1, len(series), figsize=(5.5 * len(series), 4.2), squeeze=False)
         methods = list(dict.fromkeys(

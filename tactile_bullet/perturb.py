@@ -29,6 +29,7 @@ recordings imported from a real hand (to ask how a model trained on them degrade
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass, replace
 
@@ -112,6 +113,7 @@ def perturb(
     )
 
 
+@functools.cache
 def _link_joints() -> dict[str, tuple[tuple[str, ...], str]]:
     """Long-finger link -> (flexion joints between the palm and it, abduction joint)."""
     from .hand import FINGER_LINKS, LONG_FINGERS

@@ -160,5 +160,9 @@ if pytest is not None:
 
     @pytest.fixture(scope="session")
     def comparison_data(request) -> ComparisonData:
-        """The session's :class:`ComparisonData`, under pytest's cache folder."""
-        return ComparisonData(request.config.cache.mkdir(CACHE_KEY))
+        """The session's :class:`ComparisonData`, under pytest's cache folder (a temporary
+        folder when the cache plugin is off: ``-p no:cacheprovider``)."""
+        cache = getattr(request.config, "cache", None)
+        if cache is not None:
+            return ComparisonData(cache.mkdir(CACHE_KEY))
+        return ComparisonData(request.getfixturevalue("tmp_path_factory").mktemp(CACHE_KEY))

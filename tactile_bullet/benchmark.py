@@ -319,11 +319,15 @@ def plot_curves(rows, table: Mapping[str, P.Protocol], out: Path) -> list[Path]:
         if not series:  # only headline levels (the tiny scale): no curve to draw
             continue
         plt = _pyplot()
-        fig, axes = plt.subplots(1, len(series), figsize=(5.5 * len(series), 4.2), squeeze=False)
+        fig, axes = plt.subplots(1, len(series), figsize=(5.0 * len(series), 4.2), squeeze=False)
         methods = list(dict.fromkeys(
             (r["descriptor"], r["classifier"], r["training"]) for r in rows
             if r["protocol"] == name and r["accuracy"] is not None
         ))  # fmt: skip
+        # colour: descriptor; marker: classifier; dashed: noise-aware training
+        descs = list(dict.fromkeys(m[0] for m in methods))
+        clfs = list(dict.fromkeys(m[1] for m in methods))
+        colours = plt.get_cmap("tab10")
         for ax, s in zip(axes[0], series, strict=True):
             levels = [
                 lv for lv in protocol.levels if lv.series in (s, "clean") and lv.x is not None
@@ -334,14 +338,19 @@ def plot_curves(rows, table: Mapping[str, P.Protocol], out: Path) -> list[Path]:
                        and (r["descriptor"], r["classifier"], r["training"]) == m}  # fmt: skip
                 xs = [lv.x for lv in levels if acc.get(lv.name) is not None]
                 ys = [100 * acc[lv.name] for lv in levels if acc.get(lv.name) is not None]
-                style = "-" if m[2] == "clean" else "--"
-                ax.plot(xs, ys, style, marker="o", ms=3, label=" + ".join(m))
+                ax.plot(
+                    xs, ys, "-" if m[2] == "clean" else "--",
+                    color=colours(descs.index(m[0]) % 10), marker="os^vDP*X"[clfs.index(m[1]) % 8],
+                    ms=4, lw=1.2, label=" + ".join(m),
+                )  # fmt: skip
             ax.set_title(f"{name}: {s}")
             ax.set_xlabel(protocol.curve or "")
             ax.set_ylabel("accuracy (%)")
             ax.set_ylim(0, 102)
             ax.grid(alpha=0.3)
-        axes[0][-1].legend(fontsize=6, loc="lower left")
+        handles, labels = axes[0][0].get_legend_handles_labels()
+        fig.legend(handles, labels, loc="upper left", bbox_to_anchor=(1.0, 1.0), fontsize=7,
+                   ncol=1 + len(methods) // 25, frameon=False)  # fmt: skip
         fig.tight_layout()
         written.append(_save(fig, out / filename))
     return written

@@ -10,11 +10,13 @@ from the training ones along one axis a deployed system meets:
 - ``sensor-noise``: train clean; test on the in-distribution test grasps read through a
   :class:`~tactile_bullet.perturb.SensorModel` (joint noise, per-joint calibration bias,
   effort noise). Headline: sigma 1 deg with bias 3 deg;
-- ``sim-shift``: train at default physics; test on the in-distribution test grasps simulated
-  again with other friction, torque threshold, closing speed or phalanx lengths (another hand
-  of the same model: the reality gap's stand-in). Headline: every knob shifted by +-20%
-  (friction 0.8 +- 20%, thresT and closing speed +-20%, phalanges +-2%), half the grasps up,
-  half down.
+- ``sim-shift``: train at default physics; test on grasps drawn by the in-distribution test
+  recipe (sizes and offsets, a seed of their own) simulated with other friction, torque
+  threshold, closing speed or phalanx lengths (another hand of the same model: the reality
+  gap's stand-in). Headline: every knob shifted by +-20% (friction 0.8 +- 20%, thresT and
+  closing speed +-20%, phalanges +-2%), the same grasps once up, once down. The up and down
+  sets of a level share their specs, as do the single-knob sets, so those compare grasp for
+  grasp; the unshifted level is the in-distribution test set (other draws, 60 grasps).
 
 A protocol names datasets (:class:`SetSpec`: a random-mode sweep and a seed) rather than holding
 records, so the benchmark simulates each set once through the dataset layer (sharded, resumable)

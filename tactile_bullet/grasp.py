@@ -98,7 +98,10 @@ def simulate_grasp(
     values = spec.resolve(params)
     pose = pose or Pose()
     ctl = controller or ControllerSettings()
-    scene = Scene(spec, values, pose, timestep=ctl.timestep, gui=gui, visual=scene_hook is not None)
+    scene = Scene(
+        spec, values, pose, timestep=ctl.timestep, gui=gui, visual=scene_hook is not None,
+        friction=ctl.friction, phalanx_scale=ctl.phalanx_scale,
+    )  # fmt: skip
     try:
         return _run(scene, spec, values, pose, ctl, int(seed), scene_hook)
     finally:

@@ -97,11 +97,18 @@ class ControllerSettings:
     thesis ch. 3) finds it out of contact, instead of running it to its joint limits: fewer
     physics steps where a finger misses the object, identical grasps where none does. Off by
     default (records saved before it existed load with it off)."""
+    friction: float = 0.8
+    """Lateral (Coulomb) friction coefficient of the hand's links and the object. A physics
+    knob, not Algorithm 1's: the benchmark's simulator-shift protocol varies it."""
+    phalanx_scale: float = 1.0
+    """Length factor of every finger's and the thumb's phalanges (joint spacing and link
+    geometry): 1.03 is another hand of the same model with 3% longer fingers."""
 
     def __post_init__(self) -> None:
         if self.mode not in ("torque", "contact"):
             raise UsageError(f"mode must be 'torque' or 'contact', got {self.mode!r}")
-        for name in ("delta", "thres_t", "max_time", "timestep", "sample_rate", "motor_force"):
+        for name in ("delta", "thres_t", "max_time", "timestep", "sample_rate", "motor_force",
+                     "friction"):  # fmt: skip
             value = getattr(self, name)
             if not (isinstance(value, int | float) and math.isfinite(value) and value > 0):
                 raise UsageError(f"controller {name} must be a positive number, got {value!r}")
@@ -128,6 +135,28 @@ class ControllerSettings:
                 f"controller timestep must be at most 0.01 s and sample_rate at most one "
                 f"sample per step, got {self.timestep!r} s and {self.sample_rate!r} Hz"
             )
+        scale = self.phalanx_scale
+        if isinstance(scale, bool) or not isinstance(scale, int | float) or not 0.8 <= scale <= 1.2:
+            raise UsageError(f"controller phalanx_scale must be from 0.8 to 1.2, got {scale!r}")
+
+
+PHYSICS_DEFAULTS: dict[str, float | bool] = {
+    "friction": 0.8,
+    "phalanx_scale": 1.0,
+    "early_stop": False,
+}
+"""Fields of ControllerSettings added after records were first written (physics knobs and
+the early grasp end): left out of the saved form while at these values, so older records,
+dataset manifests (compared on ``--resume``) and their checksums stay byte-identical."""
+
+
+def controller_dict(controller: ControllerSettings) -> dict:
+    """The settings as saved in records and manifests (see :data:`PHYSICS_DEFAULTS`)."""
+    out = asdict(controller)
+    for key, default in PHYSICS_DEFAULTS.items():
+        if out[key] == default:
+            del out[key]
+    return out
 
 
 @dataclass(frozen=True, eq=False)
@@ -210,7 +239,7 @@ class GraspRecord:
             "shape": self.shape,
             "params": dict(self.params),
             "pose": asdict(self.pose),
-            "controller": asdict(self.controller),
+            "controller": controller_dict(self.controller),
             "seed": int(self.seed),
             "fingers_in_contact": list(self.fingers_in_contact),
             "flags": list(self.flags),

@@ -28,14 +28,20 @@ from __future__ import annotations
 import math
 import tomllib
 from collections.abc import Mapping, Sequence
-from dataclasses import asdict, dataclass, field, fields
+from dataclasses import dataclass, field, fields
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
 from .errors import UsageError
-from .records import MAX_OFFSET_M, MAX_ROTATION_DEG, ControllerSettings, Pose
+from .records import (
+    MAX_OFFSET_M,
+    MAX_ROTATION_DEG,
+    ControllerSettings,
+    Pose,
+    controller_dict,
+)
 
 Dimension = tuple[float, ...] | dict[str, float]
 """A list of values, or {"min", "max"} (+ "steps" in grid mode)."""
@@ -130,15 +136,11 @@ class Sweep:
 
     def to_dict(self) -> dict[str, Any]:
         """JSON/TOML-ready form, stored in the dataset manifest (and compared on --resume)."""
-        controller = asdict(self.controller)
-        if not controller["early_stop"]:
-            # left out when off, so datasets begun before the option existed still resume
-            del controller["early_stop"]
         return {
             "name": self.name,
             "mode": self.mode,
             "samples": self.samples,
-            "controller": controller,
+            "controller": controller_dict(self.controller),
             "shapes": [_shape_dict(s) for s in self.shapes],
         }
 

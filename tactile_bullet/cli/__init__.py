@@ -30,6 +30,7 @@ COMMANDS: tuple[str, ...] = (
     "train",
     "evaluate",
     "compare",
+    "benchmark",
     "identify",
     "demo",
     "sequential",

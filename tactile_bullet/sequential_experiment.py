@@ -362,6 +362,10 @@ def run(args: argparse.Namespace) -> int:
             f"class {names[int(counts.argmin())]!r} has {int(counts.min())} samples: the "
             "experiment holds a third of each class out for testing and needs at least 3"
         )
+    if not args.timing:
+        from .files import probe_folder
+
+        probe_folder(args.out, "--out")  # before minutes of training, not after
     if args.timing:
         doc = timing(X, y, names, args)
         if json_mode:

@@ -62,11 +62,14 @@ def load_data(args: argparse.Namespace) -> tuple[np.ndarray, np.ndarray, list[st
             "--synthetic"
         )
     from .cli.common import estimator_params
-    from .dataset import load_dataset
+    from .dataset import read_records
     from .plugins import get_descriptor
 
     params = estimator_params(args.descriptor_param, "--descriptor-param")
-    records = list(load_dataset(args.data).records(full=False))
+    loaded = read_records(args.data, getattr(args, "allow_partial", False), full=False)
+    if loaded.problems:
+        print(loaded.summary())
+    records = loaded.records
     X = get_descriptor(args.descriptor, **params).transform(records)
     names = [class_name(r) for r in records]
     classes = sorted(set(names))

@@ -46,36 +46,18 @@ LATENCY_SAMPLES = 20
 # --- data ---------------------------------------------------------------------------------------
 
 
-def records_from(path: str | os.PathLike) -> list[GraspRecord]:
+def records_from(path: str | os.PathLike, allow_partial: bool = False) -> list[GraspRecord]:
     """Every record of a dataset folder (manifest and shards), of a folder of ``.npz`` records,
-    or of one ``.npz`` record file."""
-    from .records import load_record
+    or of one ``.npz`` record file. Damaged data (a shard that fails its checksum, a shard
+    missing or never generated, an unreadable record file) is an error naming it, unless
+    ``allow_partial``: then it is skipped with a :class:`~tactile_bullet.dataset.PartialDataWarning`
+    saying how many records were left out (:func:`tactile_bullet.dataset.read_records` returns
+    them as data)."""
+    from .dataset import read_records
 
-    path = Path(path)
-    if not path.exists():
-        raise UsageError(f"data path {path} does not exist")
-    if path.is_file():
-        return [load_record(path)]
-    if _is_dataset(path):
-        try:
-            from .dataset import load_dataset
-        except ImportError:
-            raise UsageError(f"{path} is a dataset but this install cannot read datasets") from None
-        records = list(load_dataset(path))
-    else:
-        files = sorted(path.glob("*.npz"))
-        records = [load_record(f) for f in files]
-    if not records:
-        raise UsageError(f"{path} holds no grasp records")
-    return records
-
-
-def _is_dataset(path: Path) -> bool:
-    try:
-        from .dataset import is_dataset
-    except ImportError:
-        return (path / "manifest.json").is_file()
-    return bool(is_dataset(path))
+    loaded = read_records(path, allow_partial)
+    loaded.warn()
+    return loaded.records
 
 
 def labels_of(records: Sequence[GraspRecord]) -> np.ndarray:

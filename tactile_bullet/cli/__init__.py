@@ -4,7 +4,9 @@ Each subcommand lives in its own module ``tactile_bullet.cli.<name>`` exposing
 ``add_parser(subparsers)`` and ``run(args) -> int``. Modules import heavy libraries (pybullet,
 torch, matplotlib) inside ``run`` so that ``tactile-bullet --help`` starts fast.
 
-Exit status: 0 success, 2 bad input (one line on stderr, no traceback), 1 internal failure.
+Exit status: 0 success, 2 bad input (one line on stderr, no traceback), 1 internal failure,
+130 interrupted (Ctrl-C), 143 terminated (SIGTERM, unwound like Ctrl-C: workers stopped,
+temporary files removed, a dataset left for ``generate --resume``).
 """
 
 from __future__ import annotations
@@ -13,6 +15,7 @@ import argparse
 import importlib
 import os
 import re
+import signal
 import sys
 import traceback
 
@@ -23,6 +26,7 @@ COMMANDS: tuple[str, ...] = (
     "shapes",
     "grasp",
     "generate",
+    "verify",
     "train",
     "evaluate",
     "compare",
@@ -31,6 +35,21 @@ COMMANDS: tuple[str, ...] = (
     "sequential",
     "plugins",
 )
+
+
+class Terminated(KeyboardInterrupt):
+    """SIGTERM, raised in the main thread so that it unwinds as Ctrl-C does."""
+
+
+def _terminate(signum: int, frame) -> None:
+    if os.getpid() != _main_pid:  # a forked worker inherited this handler: just die
+        signal.signal(signum, signal.SIG_DFL)
+        os.kill(os.getpid(), signum)
+        return
+    raise Terminated
+
+
+_main_pid = os.getpid()
 
 
 class _Parser(argparse.ArgumentParser):
@@ -88,14 +107,21 @@ def main(argv: list[str] | None = None) -> int:
         args = parser.parse_args(join_negative_values(sys.argv[1:] if argv is None else list(argv)))
     except SystemExit as exc:  # --help, --version, or bad usage (already printed, one line)
         return exc.code if isinstance(exc.code, int) else 2
+    global _main_pid
+    _main_pid = os.getpid()
+    try:
+        previous = signal.signal(signal.SIGTERM, _terminate)
+    except ValueError:  # main() called from another thread: leave signals to the host
+        previous = None
     try:
         return int(args.run(args) or 0)
     except UsageError as exc:
         print(f"tactile-bullet {args.command}: error: {exc}", file=sys.stderr)
         return 2
-    except KeyboardInterrupt:
-        print("tactile-bullet: interrupted", file=sys.stderr)
-        return 130
+    except KeyboardInterrupt as exc:
+        terminated = isinstance(exc, Terminated)
+        print(f"tactile-bullet: {'terminated' if terminated else 'interrupted'}", file=sys.stderr)
+        return 143 if terminated else 130
     except BrokenPipeError:  # `tactile-bullet shapes --json | head`: the reader left
         os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
         return 0
@@ -108,6 +134,9 @@ def main(argv: list[str] | None = None) -> int:
             file=sys.stderr,
         )
         return 1
+    finally:
+        if previous is not None:
+            signal.signal(signal.SIGTERM, previous)
 
 
 if __name__ == "__main__":  # pragma: no cover

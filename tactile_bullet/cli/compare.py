@@ -7,6 +7,7 @@ import sys
 
 from ..errors import UsageError
 from .common import emit_json, log_lines, seed_number
+from .data_args import add_allow_partial, read_data, report_skipped
 
 
 def add_parser(sub) -> None:
@@ -18,6 +19,7 @@ def add_parser(sub) -> None:
     )
     parser.add_argument("--data", required=True, metavar="DIR", help="training dataset")
     parser.add_argument("--test", metavar="DIR", help="test dataset (default: split --data)")
+    add_allow_partial(parser)
     parser.add_argument(
         "--descriptor", metavar="A,B", help="descriptors to compare (default: all installed)"
     )
@@ -42,12 +44,13 @@ def name_list(text: str | None, what: str, default) -> list[str]:
 
 def run(args: argparse.Namespace) -> int:
     from ..plugins import classifier_names, descriptor_names
-    from ..workflow import compare, records_from
+    from ..workflow import compare
 
     descriptors = name_list(args.descriptor, "--descriptor", descriptor_names)
     classifiers = name_list(args.classifier, "--classifier", classifier_names)
-    train_records = records_from(args.data)
-    test_records = records_from(args.test) if args.test else None
+    loaded = [read_data(args.data, args)] + ([read_data(args.test, args)] if args.test else [])
+    train_records = loaded[0].records
+    test_records = loaded[1].records if args.test else None
     verbose = log_lines(args.json)
 
     def report(row: dict) -> None:
@@ -58,6 +61,7 @@ def run(args: argparse.Namespace) -> int:
         train_records, test_records, descriptors, classifiers,
         seed=args.seed, test_fraction=args.test_fraction, on_pair=report,
     )  # fmt: skip
+    report_skipped(loaded, args, rows)
     if args.json:
         emit_json(rows)
     else:

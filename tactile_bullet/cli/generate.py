@@ -126,4 +126,6 @@ def run(args: argparse.Namespace) -> int:
             f"{doc['records']} grasps in {doc['shards']} shards at {doc['out']} "
             f"({doc['failed']} failed) in {doc['wall_time_s']:.1f} s"
         )
+        for problem in doc["repaired"]:
+            print(f"simulated again: {problem['file']} ({problem['problem']})")
     return 0

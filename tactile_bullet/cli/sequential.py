@@ -7,6 +7,7 @@ from pathlib import Path
 
 from ..errors import UsageError
 from .common import add_force_flag, count, seed_number
+from .data_args import add_allow_partial
 
 MAX_SYNTHETIC_VALUES = 20_000_000
 """Largest --synthetic data set (classes x per-class x features numbers, 160 MB of floats)."""
@@ -21,6 +22,7 @@ def add_parser(sub) -> None:
         "disturbance-matrix figures. Needs the torch extra.",
     )
     parser.add_argument("--data", type=Path, help="a dataset (generate --preset sequential)")
+    add_allow_partial(parser)
     parser.add_argument("--synthetic", action="store_true", help="make_classification data")
     parser.add_argument(
         "--descriptor", default="signature+contact-normals",

@@ -559,6 +559,8 @@ def _writer_lock(out: Path) -> Iterator[None]:
     except ImportError:  # Windows: no advisory locks; one writer is then the user's care
         yield
         return
+    if (out / LOCK).is_symlink():  # opening it would create or lock a file elsewhere
+        raise UsageError(f"{out / LOCK} is a link; refusing to follow it out of the dataset")
     try:
         handle = open(out / LOCK, "a")  # noqa: SIM115 - held until the with block ends
     except OSError as exc:
@@ -757,6 +759,8 @@ def verify(path: str | os.PathLike) -> dict[str, Any]:
     if not is_dataset(path):
         loaded = read_records(path, allow_partial=True, full=False, empty_ok=True)
         problems = loaded.problems
+        if not loaded.records and not problems:
+            raise UsageError(f"{path} is neither a dataset nor a folder of grasp records")
         doc = {"data": str(path), "kind": "records", "records": len(loaded.records)}
         return {**doc, "ok": not problems, "problems": [p.as_dict() for p in problems]}
     try:
@@ -846,6 +850,11 @@ def read_records(
         files = [path] if path.is_file() else sorted(path.glob("*.npz"))
         loaded = LoadedRecords([])
         for file in files:
+            if not file.is_file():  # a folder, or a FIFO that would block the read forever
+                if not allow_partial:
+                    raise UsageError(f"{file} is not a regular file")
+                loaded.problems.append(Problem(str(file), "not a regular file", 1))
+                continue
             try:
                 loaded.records.append(load_record(file))
             except _DECODE_ERRORS as exc:  # load_record names the file in its UsageErrors

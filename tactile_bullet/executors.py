@@ -89,13 +89,13 @@ def _pool(workers: int) -> Iterator[ProcessPoolExecutor]:
     except BrokenProcessPool:
         raise  # the workers are gone already; the caller isolates the suspects
     except BaseException:
-        stop_workers(pool)
+        _stop_workers(pool)
         raise
     finally:
         pool.shutdown(wait=True, cancel_futures=True)
 
 
-def stop_workers(pool: ProcessPoolExecutor, grace: float = 5.0) -> None:
+def _stop_workers(pool: ProcessPoolExecutor, grace: float = 5.0) -> None:
     """Terminate a pool's worker processes now (SIGTERM, then SIGKILL after ``grace``
     seconds), so that shutting the pool down does not wait for their tasks."""
     processes = list((getattr(pool, "_processes", None) or {}).values())

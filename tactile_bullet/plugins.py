@@ -38,6 +38,7 @@ from .errors import TactileBulletError, UsageError
 DEFAULT_PLUGINS: tuple[str, ...] = (
     "tactile_bullet.shapes_plugin",
     "tactile_bullet.descriptors",
+    "tactile_bullet.robust",
     "tactile_bullet.classifiers.builtin",
 )
 """Built-in plugin modules, registered exactly like installed ones."""

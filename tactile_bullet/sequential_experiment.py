@@ -68,8 +68,10 @@ def load_data(args: argparse.Namespace) -> tuple[np.ndarray, np.ndarray, list[st
     params = estimator_params(args.descriptor_param, "--descriptor-param")
     loaded = read_records(args.data, getattr(args, "allow_partial", False), full=False)
     args.data_skipped = loaded.as_json()  # for the --json document
-    if loaded.problems and not getattr(args, "json", False):
-        print(loaded.summary())
+    if loaded.problems:  # on stderr under --json, where stdout holds one JSON document
+        import sys
+
+        print(loaded.summary(), file=sys.stderr if getattr(args, "json", False) else sys.stdout)
     records = loaded.records
     X = get_descriptor(args.descriptor, **params).transform(records)
     names = [class_name(r) for r in records]

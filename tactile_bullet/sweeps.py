@@ -28,14 +28,20 @@ from __future__ import annotations
 import math
 import tomllib
 from collections.abc import Mapping, Sequence
-from dataclasses import asdict, dataclass, field, fields
+from dataclasses import dataclass, field, fields
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
 from .errors import UsageError
-from .records import MAX_OFFSET_M, MAX_ROTATION_DEG, ControllerSettings, Pose
+from .records import (
+    MAX_OFFSET_M,
+    MAX_ROTATION_DEG,
+    ControllerSettings,
+    Pose,
+    controller_dict,
+)
 
 Dimension = tuple[float, ...] | dict[str, float]
 """A list of values, or {"min", "max"} (+ "steps" in grid mode)."""
@@ -134,7 +140,7 @@ class Sweep:
             "name": self.name,
             "mode": self.mode,
             "samples": self.samples,
-            "controller": asdict(self.controller),
+            "controller": controller_dict(self.controller),
             "shapes": [_shape_dict(s) for s in self.shapes],
         }
 
@@ -298,11 +304,37 @@ def _sequential() -> Sweep:
     return Sweep("sequential", tuple(shapes), mode="random", samples=40)
 
 
+def _temporal() -> Sweep:
+    """Chapter 3's validation grasps (thesis Figs 3.4, 3.8): the five thesis shapes at the small
+    end of their sizes, moved up to 30 mm sideways along O-O' so that the outer fingers often
+    miss the object, 40 random draws each (200 grasps)."""
+    from .shapes import BUILTIN_SHAPES
+
+    shapes = []
+    for shape in BUILTIN_SHAPES:
+        if not shape.thesis:
+            continue
+        small = {
+            k: {"min": p.min, "max": round(p.min + 0.4 * (p.max - p.min), 5)}
+            for k, p in shape.params.items()
+        }
+        shapes.append(
+            ShapeSweep(
+                shape.name,
+                small,
+                offset_x={"min": -0.03, "max": 0.03},
+                offset_z={"min": -0.005, "max": 0.005},
+            )
+        )
+    return Sweep("temporal", tuple(shapes), mode="random", samples=40)
+
+
 PRESETS = {
     "thesis": _thesis,
     "modified": _modified,
     "sequential": _sequential,
     "smoke": _smoke,
+    "temporal": _temporal,
 }
 
 

@@ -203,6 +203,18 @@ def test_a_damaged_record_file_in_a_folder_is_named(tmp_path):
         records_from(folder)
     with pytest.warns(PartialDataWarning, match="1 record skipped"):
         assert [r.shape for r in records_from(folder, allow_partial=True)] == ["cylinder", "cone"]
+    delete(folder / "rec00001.npz")
+    os.mkfifo(folder / "rec00001.npz")  # reading it would block forever
+    with pytest.raises(UsageError, match="rec00001.npz is not a regular file"):
+        records_from(folder)
+
+
+def test_a_lock_file_that_links_elsewhere_is_not_followed(ds, tmp_path):
+    (ds / ".lock").unlink()
+    os.symlink(tmp_path / "elsewhere", ds / ".lock")
+    with pytest.raises(UsageError, match="is a link"):
+        write(mix_sweep(ds.parent), ds, resume=True)
+    assert not (tmp_path / "elsewhere").exists()
 
 
 # --- manifests are validated on load --------------------------------------------------------
@@ -335,6 +347,8 @@ def test_verify_checks_record_folders_and_unreadable_manifests(ds, tmp_path, cap
     assert doc["problems"][0]["file"].endswith("manifest.json")
     assert "unreadable" in doc["problems"][0]["problem"]
     run_error(capsys, ["verify", "--data", str(tmp_path / "nothing")])
+    (tmp_path / "empty").mkdir()
+    assert "neither a dataset" in run_error(capsys, ["verify", "--data", str(tmp_path / "empty")])
 
 
 # --- --resume re-simulates what is damaged or missing ---------------------------------------
@@ -387,3 +401,18 @@ def test_a_model_file_cut_short_is_refused_by_name(pristine, tmp_path, capsys):
     with warnings.catch_warnings():
         warnings.simplefilter("error")  # a sound dataset reads without any warning
         assert len(records_from(pristine, allow_partial=True)) == N_RECORDS
+
+
+def test_sequential_refuses_a_damaged_dataset_unless_allowed(ds, tmp_path, capsys):
+    from argparse import Namespace
+
+    from tactile_bullet.sequential_experiment import load_data
+
+    delete(ds / "shard-00000.npz")
+    err = run_error(capsys, ["sequential", "--data", str(ds), "--out", str(tmp_path / "seq")])
+    assert "shard-00000.npz: missing" in err
+    args = Namespace(synthetic=False, data=ds, descriptor="signature", descriptor_param=None,
+                     allow_partial=True)  # fmt: skip
+    X, y, names = load_data(args)  # what `sequential --allow-partial` learns from
+    assert len(X) == len(y) == N_RECORDS - 4 and names == ["cylinder", "sphere"]
+    assert "--allow-partial: 4 records skipped" in capsys.readouterr().out

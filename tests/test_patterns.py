@@ -143,9 +143,10 @@ def test_signature_summary_has_the_grasp_json_fields(grasps):
 
     summary = signature_summary(grasps["cone"][0])
     assert set(summary) == {
-        "alpha_deg", "rotation_estimate_deg", "identified", "nearest_pattern", "distances",
-        "in_identification_range",
+        "alpha_deg", "rotation_estimate_deg", "identified", "identified_uncorrected",
+        "nearest_pattern", "distances", "in_identification_range", "correction",
     }  # fmt: skip
+    assert summary["correction"]["detector"] == "dynamic"
     assert set(summary["distances"]) == set(default_library())
     assert summary["identified"] in {*default_library(), "unknown"}
     # nearest_pattern is the smallest DTW distance, whatever the identification decided

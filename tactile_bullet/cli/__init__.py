@@ -30,11 +30,17 @@ COMMANDS: tuple[str, ...] = (
     "train",
     "evaluate",
     "compare",
+    "benchmark",
     "identify",
     "demo",
     "sequential",
+    "temporal",
     "plugins",
+    "import",
+    "export",
 )
+MODULES: dict[str, str] = {"import": "import_"}
+"""Commands whose module name differs (``import`` is a Python keyword)."""
 
 
 class Terminated(KeyboardInterrupt):
@@ -68,10 +74,11 @@ def build_parser() -> argparse.ArgumentParser:
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=_Parser)
     sub.required = True
     for name in COMMANDS:
+        path = f"{__name__}.{MODULES.get(name, name)}"
         try:
-            module = importlib.import_module(f"{__name__}.{name}")
+            module = importlib.import_module(path)
         except ModuleNotFoundError as exc:
-            if exc.name == f"{__name__}.{name}":
+            if exc.name == path:
                 continue
             raise
         module.add_parser(sub)

@@ -46,6 +46,11 @@ def add_parser(sub) -> None:
         help="start each finger where its sweep comes within 5 mm of the object (1.2x faster, "
         "final angles within ~2.5 deg)",
     )  # fmt: skip
+    parser.add_argument(
+        "--early-stop", action="store_true",
+        help="stop closing a finger once the dynamic detector finds it out of contact "
+        "(fewer steps when a finger misses the object)",
+    )  # fmt: skip
     parser.add_argument("--seed", type=seed_number, default=0)
     parser.add_argument("--out", help="write the GraspRecord to this .npz file")
     parser.add_argument("--snapshot", help="render the grasp to this PNG (CPU renderer)")
@@ -59,7 +64,7 @@ def add_parser(sub) -> None:
 def _controller(args):
     from ..records import ControllerSettings
 
-    overrides = {"mode": args.mode, "preshape": args.preshape}
+    overrides = {"mode": args.mode, "preshape": args.preshape, "early_stop": args.early_stop}
     for key, value in (("delta", args.delta), ("thres_t", args.thres), ("max_time", args.max_time)):
         if value is not None:
             overrides[key] = value
@@ -112,6 +117,7 @@ def run(args: argparse.Namespace) -> int:
         "steps": record.steps,
         "flags": list(record.flags),
         "signature": signature,
+        "temporal": _temporal_block(record),
         "outputs": {k: str(v) for k, v in outputs.items()},
     }
     if args.json:
@@ -127,6 +133,16 @@ def _signature_block(record) -> dict | None:
 
     try:
         return signature_summary(record)
+    except UsageError:
+        return None
+
+
+def _temporal_block(record) -> dict | None:
+    """Both non-contact detectors' verdicts (thesis ch. 3), None without a time series."""
+    from ..temporal import temporal_summary
+
+    try:
+        return temporal_summary(record)
     except UsageError:
         return None
 
@@ -157,5 +173,11 @@ def _print_summary(doc: dict) -> None:
         est_text = "n/a" if est is None else f"{est:.1f} deg"
         named = f"identified {sig['identified']}, nearest pattern {sig['nearest_pattern']}"
         print(f"signature: alpha {sig['alpha_deg']:.1f} deg, rotation estimate {est_text}, {named}")
+    temporal = doc.get("temporal")
+    if temporal:
+        dyn = temporal["dynamic"]
+        off = ", ".join(dyn["non_contact"]) or "none"
+        print(f"fingers off the object (dynamic detector): {off}, all known at "
+              f"{dyn['decided_at_s']:.2f} s")  # fmt: skip
     for key, path in doc["outputs"].items():
         print(f"wrote {key}: {path}")

@@ -14,6 +14,7 @@ from .common import (
     parse_rotation,
     seed_number,
 )
+from .import_ import add_recording_options, identify_recording
 
 
 def add_parser(sub) -> None:
@@ -27,6 +28,9 @@ def add_parser(sub) -> None:
     source = parser.add_mutually_exclusive_group(required=True)
     source.add_argument("--shape", help="simulate a grasp on this shape")
     source.add_argument("--record", metavar="REC.npz", help="a saved grasp record")
+    source.add_argument(
+        "--recording", metavar="FILE", help="a real hand's recording (bag, CSV, Parquet)"
+    )
     parser.add_argument(
         "--param", action="append", metavar="KEY=VALUE", help="shape size in metres (repeatable)"
     )
@@ -38,6 +42,7 @@ def add_parser(sub) -> None:
     )
     parser.add_argument("--seed", type=seed_number, default=0)
     parser.add_argument("--json", action="store_true", help="print one JSON document")
+    add_recording_options(parser)
     parser.set_defaults(run=run)
 
 
@@ -62,6 +67,10 @@ def run(args: argparse.Namespace) -> int:
     from ..models import load_model
     from ..workflow import identify
 
+    if args.recording:
+        return identify_recording(args)
+    if args.calibration or args.marker or args.topic != "/joint_states" or args.gap != "0.5":
+        raise UsageError("--topic, --marker, --gap and --calibration read a --recording")
     model = load_model(args.model)
     record = _record(args)
     doc = identify(model, record)

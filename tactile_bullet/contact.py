@@ -23,7 +23,11 @@ NO_CONTACT = "no contact: nothing to identify"
 
 def nothing_to_identify(record) -> str | None:
     """Why ``record`` cannot be identified (a one-line reason starting with
-    :data:`NO_CONTACT`), or None when enough long fingers touched the object."""
+    :data:`NO_CONTACT`), or None when enough long fingers touched the object. A real hand's
+    recording (``source`` "recorded") carries no contact sensing: its empty
+    ``fingers_in_contact`` means unknown, not none, and it is never refused here."""
+    if getattr(record, "source", "simulated") != "simulated":
+        return None
     touching = [f for f in LONG_FINGERS if f in record.fingers_in_contact]
     if "no_contact" in record.flags or not touching:
         return f"{NO_CONTACT} (no finger touched the object)"

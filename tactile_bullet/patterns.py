@@ -368,7 +368,7 @@ def identify(
 
 
 def signature_summary(record) -> dict:
-    """The ``signature`` block of ``grasp --json`` (DESIGN section 5) for one record:
+    """The ``signature`` block of ``grasp --json`` (docs/json.md) for one record:
     ``identified`` is the training-free answer (a shape, or "unknown" beyond the
     correspondence threshold), ``nearest_pattern`` the pattern at the smallest DTW distance
     (they differ where the integral rule or the threshold decides). A grasp that touched too

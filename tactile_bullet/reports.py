@@ -168,7 +168,7 @@ def evaluation_report(
     classes: Sequence[str],
     records: Sequence | None = None,
 ) -> dict[str, Any]:
-    """The ``evaluate --json`` document (DESIGN section 5) plus accuracy by size and position.
+    """The ``evaluate --json`` document (docs/json.md) plus accuracy by size and position.
 
     ``records`` (aligned with ``y_true``) supply each object's sizes and offset for the bins;
     without them the bins are left out."""
@@ -223,6 +223,10 @@ def summary_text(report: Mapping[str, Any]) -> str:
         confusion_text(report["confusion_matrix"], report["classes"]),
         "",
     ]
+    if report.get("no_contact"):
+        lines.append(
+            f"{report['no_contact']} grasps touched too little to carry a shape (scored anyway)"
+        )
     if report.get("unknown_classes"):
         unknown = ", ".join(report["unknown_classes"])
         lines.append(f"shapes the model was not trained on (always counted wrong): {unknown}")

@@ -67,6 +67,7 @@ def load_data(args: argparse.Namespace) -> tuple[np.ndarray, np.ndarray, list[st
 
     params = estimator_params(args.descriptor_param, "--descriptor-param")
     loaded = read_records(args.data, getattr(args, "allow_partial", False), full=False)
+    args.data_skipped = loaded.as_json()  # for the --json document
     if loaded.problems:  # on stderr under --json, where stdout holds one JSON document
         import sys
 
@@ -367,18 +368,29 @@ def run(args: argparse.Namespace) -> int:
             f"class {names[int(counts.argmin())]!r} has {int(counts.min())} samples: the "
             "experiment holds a third of each class out for testing and needs at least 3"
         )
+    if not args.timing:
+        from .files import probe_folder
+
+        probe_folder(args.out, "--out")  # before minutes of training, not after
     if args.timing:
         doc = timing(X, y, names, args)
         if json_mode:
-            emit_json(doc)
+            emit_json(_with_skipped(doc, args))
         else:
             say(timing_text(doc))
         return 0
     found = experiment(X, y, names, args, say)
     figures = plot(found["results"], found["disturbance"], names, args.out)
     if json_mode:
-        emit_json(experiment_doc(found, names, args, X, figures))
+        emit_json(_with_skipped(experiment_doc(found, names, args, X, figures), args))
     else:
         for path in figures:
             say(f"wrote {path}")
     return 0
+
+
+def _with_skipped(doc: dict, args: argparse.Namespace) -> dict:
+    """``data_skipped`` (docs/json.md) under --allow-partial, as the other commands do."""
+    if getattr(args, "allow_partial", False) and hasattr(args, "data_skipped"):
+        doc["data_skipped"] = args.data_skipped
+    return doc

@@ -168,7 +168,7 @@ def predict(model, records: Sequence[GraspRecord]) -> np.ndarray:
 
 
 def evaluate(model, records: Iterable[GraspRecord]) -> dict[str, Any]:
-    """Score a model on labelled records: the ``evaluate --json`` document (DESIGN section 5)
+    """Score a model on labelled records: the ``evaluate --json`` document (docs/json.md)
     with accuracy by object size and by position, and which model was scored."""
     from .reports import class_order, evaluation_report
 
@@ -185,6 +185,11 @@ def evaluate(model, records: Iterable[GraspRecord]) -> dict[str, Any]:
     unknown = sorted(set(y_true) - set(known))
     if unknown:
         doc["unknown_classes"] = unknown
+    from .contact import nothing_to_identify
+
+    # scored like every grasp (a model answers them all), but counted: a grasp that touched
+    # nothing carries no shape, and `identify` names none
+    doc["no_contact"] = sum(nothing_to_identify(r) is not None for r in records)
     doc["model"] = describe_model(model)
     return doc
 

@@ -191,6 +191,8 @@ def test_an_image_format_nobody_can_write_is_refused_before_simulating(tmp_path,
         ["demo", "--quick", "--out", "OUT", "--workers", "0"],
         ["generate", "--preset", "smoke", "--out", "OUT", "--workers", "100000"],
         ["generate", "--preset", "smoke", "--out", "OUT", "--shard-size", "1000000000"],
+        ["benchmark", "--out", "OUT", "--seed", "-1"],
+        ["benchmark", "--out", "OUT", "--workers", "100000"],
     ],
 )
 def test_counts_and_seeds_out_of_range(tmp_path, capsys, argv):
@@ -347,3 +349,13 @@ def test_package_data_is_a_package():
 
     root = Path(__file__).resolve().parent.parent
     assert "tactile_bullet.data" in find_packages(str(root), include=["tactile_bullet*"])
+
+
+def test_a_real_hands_recording_is_not_taken_for_a_grasp_without_contact():
+    """Recordings carry no contact sensing: an empty fingers_in_contact means unknown."""
+    from tactile_bullet.contact import nothing_to_identify
+
+    simulated = replace(make_record("sphere"), fingers_in_contact=(), flags=("no_contact",))
+    assert nothing_to_identify(simulated).startswith("no contact")
+    recorded = replace(simulated, flags=(), source="recorded")
+    assert nothing_to_identify(recorded) is None

@@ -202,7 +202,7 @@ def show_progress(json_mode: bool) -> bool:
 def log_lines(json_mode: bool) -> bool:
     """Plain progress lines on stderr: for a person at a terminal (no --json), and wherever
     stderr is not a terminal (a log file, CI), so long work is never silent for minutes.
-    Only --json at a terminal stays quiet (DESIGN section 5)."""
+    Only --json at a terminal stays quiet (docs/json.md)."""
     return not json_mode or not sys.stderr.isatty()
 
 

@@ -85,7 +85,8 @@ class ProgressLines:
         done, total, shards = state
         elapsed = time.perf_counter() - self.started
         print(
-            f"generate: {done}/{total} grasps done ({shards} shards) after {elapsed:.0f} s",
+            f"generate: {done}/{total} grasps done ({shards} shard{'' if shards == 1 else 's'}) "
+            f"after {elapsed:.0f} s",
             file=sys.stderr,
             flush=True,
         )

@@ -128,7 +128,7 @@ def run(args: argparse.Namespace) -> int:
 
 
 def _signature_block(record) -> dict | None:
-    """The DESIGN `signature` block, or None where the grasp gives no signature."""
+    """The `signature` block (docs/json.md), or None where the grasp gives no signature."""
     from ..patterns import signature_summary
 
     try:

@@ -64,13 +64,28 @@ def add_parser(sub) -> None:
 
 
 def check_args(args: argparse.Namespace) -> None:
-    """Everything that can be refused before minutes of training: the data source, the size
-    of --synthetic data, and the figures' folder (writable, no earlier figures unasked)."""
-    from ..files import existing_outputs, probe_folder
+    """Everything that can be refused before minutes of training, writing nothing: the data
+    source, the size of --synthetic data, the figures' folder (no earlier figures unasked)."""
+    from ..files import existing_outputs
     from ..sequential_experiment import FIGURES
 
     if args.synthetic and args.data is not None:
         raise UsageError("give --data DIR or --synthetic, not both")
+    if not args.synthetic:
+        if args.data is None:
+            raise UsageError(
+                "give --data DIR (e.g. from `tactile-bullet generate --preset sequential`) or "
+                "--synthetic"
+            )
+        if not args.data.is_dir():
+            raise UsageError(f"--data {args.data} is not a dataset folder")
+        from ..plugins import get_descriptor
+        from .common import estimator_params
+
+        # a typo in the descriptor or its parameters, before the dataset is read
+        get_descriptor(
+            args.descriptor, **estimator_params(args.descriptor_param, "--descriptor-param")
+        )
     if args.synthetic:
         size = args.classes * args.per_class * args.features
         if size > MAX_SYNTHETIC_VALUES:
@@ -84,7 +99,7 @@ def check_args(args: argparse.Namespace) -> None:
     if out.exists() and not out.is_dir():
         raise UsageError(f"--out {out} exists and is not a directory")
     existing_outputs(out, FIGURES, "--out folder", args.force)
-    probe_folder(out, "--out")
+    # writability is probed (creating the folder) once the data has loaded, before training
 
 
 def run(args: argparse.Namespace) -> int:

@@ -12,6 +12,7 @@ import math
 from collections.abc import Mapping
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -113,6 +114,9 @@ class GraspRecord:
     flags: tuple[str, ...] = ()
     steps: int = 0
     joint_names: tuple[str, ...] = field(default=JOINT_NAMES)
+    mesh: Mapping[str, Any] | None = None
+    """For a grasp on a mesh file: which one (``meshes.MeshSource.to_dict``: path, sha256,
+    name, unit, scale, axis, budget), enough to find it again in the cache and re-simulate."""
 
     @property
     def sim_time_s(self) -> float:
@@ -159,7 +163,7 @@ class GraspRecord:
             "flags": list(self.flags),
             "steps": int(self.steps),
             "joint_names": list(self.joint_names),
-        }
+        } | ({"mesh": dict(self.mesh)} if self.mesh else {})
 
     def arrays(self) -> dict[str, np.ndarray]:
         return {
@@ -206,6 +210,7 @@ def record_from_parts(meta: Mapping, arrays: Mapping[str, np.ndarray]) -> GraspR
             flags=tuple(meta["flags"]),
             steps=int(meta["steps"]),
             joint_names=tuple(meta["joint_names"]),
+            mesh=dict(meta["mesh"]) if meta.get("mesh") else None,
         )
     except UsageError:
         raise

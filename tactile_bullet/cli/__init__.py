@@ -20,6 +20,7 @@ from ..errors import UsageError
 
 COMMANDS: tuple[str, ...] = (
     "shapes",
+    "shape_info",
     "grasp",
     "generate",
     "train",

@@ -13,6 +13,7 @@ from .common import (
     parse_vector,
     writable_file,
 )
+from .shape_info import add_mesh_options, mesh_block, mesh_shape
 
 
 def add_parser(sub) -> None:
@@ -21,7 +22,10 @@ def add_parser(sub) -> None:
         help="simulate one enclosure grasp (thesis Algorithm 1) on a shape",
         description="Simulate one enclosure grasp of the Shadow hand on a static object.",
     )
-    parser.add_argument("--shape", required=True, help="shape name (see `tactile-bullet shapes`)")
+    what = parser.add_mutually_exclusive_group(required=True)
+    what.add_argument("--shape", help="shape name (see `tactile-bullet shapes`)")
+    what.add_argument("--mesh", metavar="FILE", help="a mesh file (see docs/meshes.md)")
+    add_mesh_options(parser)
     parser.add_argument(
         "--param", action="append", metavar="KEY=VALUE", help="shape size in metres (repeatable)"
     )
@@ -78,7 +82,7 @@ def run(args: argparse.Namespace) -> int:
 
     from ..grasp import resolve_shape, timed_grasp
 
-    shape = resolve_shape(args.shape)
+    shape = mesh_shape(args) or resolve_shape(args.shape)
     hook = None
     if "snapshot" in outputs:
         from ..render import snapshot
@@ -112,6 +116,8 @@ def run(args: argparse.Namespace) -> int:
         "signature": signature,
         "outputs": {k: str(v) for k, v in outputs.items()},
     }
+    if (mesh := mesh_block(shape)) is not None:
+        doc["mesh"] = mesh
     if args.json:
         emit_json(doc)
     else:

@@ -7,6 +7,7 @@ import math
 
 from ..errors import UsageError
 from .common import emit_json, parse_key_values, parse_number, parse_vector
+from .shape_info import add_mesh_options, mesh_shape
 
 
 def add_parser(sub) -> None:
@@ -20,6 +21,8 @@ def add_parser(sub) -> None:
     source = parser.add_mutually_exclusive_group(required=True)
     source.add_argument("--shape", help="simulate a grasp on this shape")
     source.add_argument("--record", metavar="REC.npz", help="a saved grasp record")
+    source.add_argument("--mesh", metavar="FILE", help="simulate a grasp on this mesh file")
+    add_mesh_options(parser)
     parser.add_argument(
         "--param", action="append", metavar="KEY=VALUE", help="shape size in metres (repeatable)"
     )
@@ -51,7 +54,7 @@ def _record(args: argparse.Namespace):
     if abs(rotation) > math.radians(90):
         raise UsageError(f"--rotation {args.rotation} is out of range [-90, 90] degrees")
     pose = Pose(parse_vector(args.offset, 3, "--offset"), rotation)
-    return simulate_grasp(args.shape, params, pose, seed=args.seed)
+    return simulate_grasp(mesh_shape(args) or args.shape, params, pose, seed=args.seed)
 
 
 def run(args: argparse.Namespace) -> int:

@@ -386,11 +386,13 @@ def _merge(vertices: np.ndarray, faces: np.ndarray) -> tuple[np.ndarray, np.ndar
     keys = (q[:, 0] << 42) | (q[:, 1] << 21) | q[:, 2]
     _, first, inverse = np.unique(keys, return_index=True, return_inverse=True)
     faces = inverse.reshape(-1)[faces]
-    ok = (faces[:, 0] != faces[:, 1]) & (faces[:, 1] != faces[:, 2]) & (faces[:, 0] != faces[:, 2])
-    faces = faces[ok]
+    vertices = vertices[first]
+    a, b, c = (vertices[faces[:, k]] for k in range(3))
+    area2 = np.linalg.norm(np.cross(b - a, c - a), axis=1)
+    faces = faces[area2 > 1e-12 * extent**2]  # merged corners, or collinear ones
     if len(faces) == 0:
         raise UsageError("the mesh is degenerate: every triangle has zero area")
-    return vertices[first], faces
+    return vertices, faces
 
 
 def _simplify(vertices, faces, budget: int):
@@ -506,7 +508,7 @@ def check_size(name: str, size, max_radius: float, source: MeshSource) -> None:
         )
     if length < MIN_LENGTH:
         raise UsageError(
-            f"{name} is too short along its axis for the fingers: {length * 1000:.1f} mm, "
+            f"{name} is too small for the hand: {length * 1000:.1f} mm along its axis, "
             f"{(MIN_LENGTH - length) * 1000:.1f} mm under the {MIN_LENGTH * 1000:.0f} mm "
             f"limit{_unit_hint(source, 'small')}"
         )
@@ -525,7 +527,7 @@ def main_axis(mesh, axis: str = "auto") -> tuple[np.ndarray, np.ndarray]:
     """
     if axis in ("x", "y", "z"):
         k = "xyz".index(axis)
-        rows = np.roll(np.eye(3), -k, axis=1)
+        rows = np.roll(np.eye(3), k, axis=1)  # row 0 = the named axis, then cyclic
         centre = mesh.center_mass if mesh.is_volume else mesh.centroid
         return rows, np.asarray(centre, float)
     moments = np.asarray(mesh.principal_inertia_components, float)

@@ -377,7 +377,7 @@ def _read_file(source: MeshSource):
 def _merge(vertices: np.ndarray, faces: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Merge vertices closer than a millionth of the object's size (an STL's triangle soup
     becomes a connected surface) and drop faces that collapse. Quantised keys in one int64:
-    trimesh's own merge took 1 s on 200k triangles, this 0.05 s."""
+    several times faster than trimesh's own merge on a 200k-triangle STL."""
     lo = vertices.min(axis=0)
     extent = float((vertices.max(axis=0) - lo).max())
     if extent <= 0:
@@ -557,17 +557,23 @@ def main_axis(mesh, axis: str = "auto") -> tuple[np.ndarray, np.ndarray]:
 # --- radius profile by slicing -------------------------------------------------------------
 
 
+SUPPORT_DIRECTIONS = 64
+"""Directions around O-O' at which each section's support function is sampled: on a 50 x 70
+mm box section the mean over 64 directions is 0.03 mm under the exact 38.20 mm (256: 0.002 mm,
+at 4x the time; on smooth sections the error is smaller still)."""
+
+
 def radius_profile(mesh, samples: int = PROFILE_SAMPLES):
     """(x, r, reach) along O-O' (the mesh's x axis), from cross-sections of the surface.
 
     r(x) is the section's equivalent radius: the perimeter of its convex hull / 2 pi (module
-    docstring). reach(x) is how far it extends toward +y (the palm), for placement. Sections
-    are cut at ``samples`` evenly spaced planes between the object's ends; r is 0 at both
-    ends, as the primitives' profiles are. Each section's points are where the mesh's edges
-    cross the plane (vectorised over all edges and planes at once).
+    docstring), computed as the mean of its support function h(theta) = max over the section
+    of p . u(theta) (Cauchy's formula: the mean half-width), which needs no hull and runs for
+    all sections at once. reach(x) = h(+y): how far it extends toward the palm, for placement.
+    Sections are cut at ``samples`` evenly spaced planes between the object's ends; r is 0 at
+    both ends, as the primitives' profiles are. A section's points are where the mesh's edges
+    cross its plane (vectorised over all edges and planes).
     """
-    from scipy.spatial import ConvexHull, QhullError
-
     v = np.asarray(mesh.vertices, float)
     edges = np.asarray(mesh.edges_unique)
     lo, hi = float(v[:, 0].min()), float(v[:, 0].max())
@@ -575,39 +581,47 @@ def radius_profile(mesh, samples: int = PROFILE_SAMPLES):
     a, b = v[edges[:, 0]], v[edges[:, 1]]
     swap = a[:, 0] > b[:, 0]
     a[swap], b[swap] = b[swap], a[swap].copy()
-    # planes strictly inside each edge's x span: first and last index crossed
-    first = np.searchsorted(xs, a[:, 0], side="right")
-    last = np.searchsorted(xs, b[:, 0], side="left") - 1
+    # planes crossed by each edge: xs[first..last] within [a.x, b.x]
+    first = np.searchsorted(xs, a[:, 0], side="left")
+    last = np.searchsorted(xs, b[:, 0], side="right") - 1
     count = np.clip(last - first + 1, 0, None)
+    count[b[:, 0] - a[:, 0] <= 0] = 0  # edges inside a plane: their vertices count below
     edge_of = np.repeat(np.arange(len(edges)), count)
     offsets = np.concatenate([[0], np.cumsum(count)[:-1]])
     plane = first[edge_of] + (np.arange(count.sum()) - np.repeat(offsets, count))
     ea, eb = a[edge_of], b[edge_of]
     t = (xs[plane] - ea[:, 0]) / (eb[:, 0] - ea[:, 0])
     points = ea[:, 1:] + t[:, None] * (eb[:, 1:] - ea[:, 1:])
-    # vertices lying exactly on a plane belong to its section too
-    on = np.searchsorted(xs, v[:, 0])
-    exact = (on < samples) & np.isclose(xs[np.clip(on, 0, samples - 1)], v[:, 0], atol=0)
+    on = np.searchsorted(xs, v[:, 0])  # vertices lying exactly on a plane
+    exact = (on < samples) & (xs[np.clip(on, 0, samples - 1)] == v[:, 0])
     plane = np.concatenate([plane, on[exact]])
     points = np.concatenate([points, v[exact][:, 1:]])
     order = np.argsort(plane, kind="stable")
     plane, points = plane[order], points[order]
+    theta = np.linspace(0.0, 2 * np.pi, SUPPORT_DIRECTIONS, endpoint=False)
+    u = np.stack([np.cos(theta), np.sin(theta)])  # theta = 0 is +y, toward the palm
+    support = np.full((samples, SUPPORT_DIRECTIONS), -np.inf)
     bounds = np.searchsorted(plane, np.arange(samples + 1))
-    radius = np.zeros(samples)
-    reach = np.zeros(samples)
-    for k in range(samples):
-        section = points[bounds[k] : bounds[k + 1]]
-        if len(section) == 0:
-            continue
-        reach[k] = float(section[:, 0].max())
-        if len(section) >= 3:
-            try:
-                radius[k] = ConvexHull(section).area / (2 * np.pi)  # 2-D "area" = perimeter
-            except QhullError:  # collinear: a sliver at a flat end
-                pass
+    k = 0
+    while k < samples:  # blocks of whole planes, ~16k points each (n x 64 products)
+        end = max(k + 1, int(np.searchsorted(bounds, bounds[k] + 16384, side="right")) - 1)
+        end = min(end, samples)
+        starts = bounds[k:end]
+        full = starts < bounds[k + 1 : end + 1]  # planes with points
+        if full.any():
+            py, pz = points[bounds[k] : bounds[end]].T
+            block = u[0][:, None] * py + u[1][:, None] * pz  # (directions, points)
+            cuts = starts[full] - bounds[k]  # along contiguous rows: 10x faster
+            support[k:end][full] = np.maximum.reduceat(block, cuts, axis=1).T
+        k = end
+    present = np.isfinite(support[:, 0])
+    radius = np.where(present, support.mean(axis=1, where=present[:, None]), 0.0)
+    reach = np.where(present, support[:, 0], 0.0)
     # reach also covers the surface between two planes: the vertices in each slab
-    slab = np.clip(np.rint((v[:, 0] - lo) / max(xs[1] - xs[0], 1e-12)).astype(int), 0, samples - 1)
+    step = max(float(xs[1] - xs[0]), 1e-12)
+    slab = np.clip(np.rint((v[:, 0] - lo) / step).astype(int), 0, samples - 1)
     np.maximum.at(reach, slab, v[:, 1])
+    radius = np.clip(radius, 0.0, None)
     radius[0] = radius[-1] = 0.0
     return xs, radius, reach
 

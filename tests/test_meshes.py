@@ -90,7 +90,7 @@ def test_non_revolved_section_uses_the_hull_perimeter_radius(tmp_path):
     trimesh.creation.box(extents=(0.12, 0.05, 0.07)).export(path)
     shape = meshes.load_mesh(path)
     mid = shape.radius(np.array([0.0]))[0]
-    assert mid == pytest.approx(2 * (0.05 + 0.07) / (2 * np.pi), rel=1e-6)
+    assert mid == pytest.approx(2 * (0.05 + 0.07) / (2 * np.pi), abs=1e-4)
     # placement uses the corner's reach toward the palm, not the equivalent circle
     assert shape.palm_reach(np.array([0.0]))[0] > 0.024
 

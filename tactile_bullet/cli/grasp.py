@@ -13,7 +13,7 @@ from .common import (
     parse_vector,
     writable_file,
 )
-from .shape_info import add_mesh_options, mesh_block, mesh_shape
+from .shape_info import add_mesh_options, mesh_block, mesh_shape, mesh_summary
 
 
 def add_parser(sub) -> None:
@@ -122,6 +122,8 @@ def run(args: argparse.Namespace) -> int:
         emit_json(doc)
     else:
         _print_summary(doc)
+        if "mesh" in doc:
+            print(mesh_summary(doc["mesh"]))
     return 0
 
 

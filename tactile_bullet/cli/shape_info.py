@@ -51,6 +51,15 @@ def mesh_block(shape) -> dict | None:
     return describe(shape)
 
 
+def mesh_summary(block: dict) -> str:
+    """One line for ``grasp``'s text output: the file and its theoretical pattern."""
+    pattern = block["pattern"]
+    return (
+        f"mesh: {block['file']} (sha256 {block['sha256'][:12]}, {block['triangles']['collision']}"
+        f" triangles in collision); its r(x) pattern is nearest the {pattern['nearest']}'s"
+    )
+
+
 def add_parser(sub) -> None:
     parser = sub.add_parser(
         "shape-info",

@@ -59,11 +59,12 @@ TRIANGLE_BUDGET = 20_000
 decimated to it keeps its r(x) within 0.05 mm (tools/bench_mesh.py); decimation time grows
 with the input, not the budget."""
 
-COLLISION_TRIANGLES = 2_000
-"""Triangles the hand collides with (decimated further from the analysis mesh). Bullet's
-cost per step grows with the triangles under the finger capsules: at 2,000 a grasp takes
-what one on the torus (2,048) takes, at 6,000 three times as long. The chord error at this
-budget (edges of ~5 mm on a 12 cm object) is ~0.1 mm, under the 9 mm capsules' resolution."""
+COLLISION_TRIANGLES = 1_000
+"""Triangles the hand collides with on a concave object (decimated further from the analysis
+mesh). Bullet's cost per step grows with the triangles under the finger capsules: on a waisted
+200k-triangle solid, 2,000 took 6.6 ms a step, as the hyperboloid primitive's 2,240 do, 1,000
+took 4.7 (the cylinder's hull 3.1), with final joint angles within 0.7 deg of the 2,000's. The
+chord error (edges of ~7 mm on a 12 cm object) is ~0.2 mm, under the 9 mm capsules' reach."""
 
 CONVEX_HULL_TRIANGLES = 1_000
 """A convex object collides as its hull (exact for it, and Bullet's fastest path, as the
@@ -76,7 +77,7 @@ CONVEX_RATIO = 0.995
 PROFILE_SAMPLES = 241
 """Cross-sections along O-O': 0.5 mm apart on a 12 cm object, 2.5 mm on the longest allowed."""
 
-PROCESSING_VERSION = 1
+PROCESSING_VERSION = 2
 """Part of the cache key: bump when processing changes what it produces."""
 
 CACHE_ENV = "TACTILE_BULLET_CACHE"

@@ -515,5 +515,7 @@ def predicted_angles(
     if off.shape != (2,) or not np.all(np.isfinite(off)):
         raise UsageError("offset must be two finite numbers (m): along O-O', along the fingers")
     cal = load_calibration() if calibration is None else calibration
-    geo = geometric_features(fam.shape, {k: np.array([v]) for k, v in values.items()}, off[None])
+    geo = geometric_features(
+        fam.shape, {k: np.array([v]) for k, v in values.items()}, off[None]
+    )
     return cal.apply(geo)[0]

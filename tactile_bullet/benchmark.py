@@ -38,6 +38,8 @@ QUICK_DESCRIPTORS = ("signature", "raw-joints", "contact-normals", "robust-signa
 QUICK_CLASSIFIERS = ("svm", "knn")
 CONFIG = ".benchmark-config.json"
 """Written first: what this folder's results are, checked before a rerun touches them."""
+SHARD_SIZE = 8
+"""Grasps per shard of a new set (a resumed one keeps its own)."""
 OUTPUTS = ("benchmark.json", "noise.png", "shift.png", "table.txt", "data", CONFIG)
 
 
@@ -123,8 +125,9 @@ def simulate_sets(
         if not _complete(path, spec):
             log(f"simulating {spec.name} ({len(spec.sweep().tasks(spec.seed))} grasps)")
             resume = (path / MANIFEST).exists()
+            # small shards: a killed run loses at most 8 grasps per worker's block
             generate(spec.sweep(), path, workers=workers, resume=resume, seed=spec.seed,
-                     progress=show)  # fmt: skip
+                     progress=show, shard_size=None if resume else SHARD_SIZE)  # fmt: skip
         done[spec.name] = {"path": str(path)}
     return done
 

@@ -24,6 +24,8 @@ Built-in ones (zeroth-order data: proprioception; first-order: contact normals, 
   averaged over the contacts on the distal and tip links weighted by normal force, and a
   contact indicator. A finger without such a contact gives the normal (0, 0, 0) and
   indicator 0, so the classifier sees "no contact" as a value of its own rather than NaN.
+- ``time-series``: the whole joint-angle and effort series of the grasp, resampled to a fixed
+  length (``time_series.py``; the ``tcn`` classifier's input).
 """
 
 from __future__ import annotations
@@ -299,3 +301,6 @@ def register_descriptors(register):
     register(SignatureDescriptor.name, SignatureDescriptor)
     register(RawJointsDescriptor.name, RawJointsDescriptor)
     register(ContactNormalsDescriptor.name, ContactNormalsDescriptor)
+    from .time_series import TimeSeriesDescriptor
+
+    register(TimeSeriesDescriptor.name, TimeSeriesDescriptor)

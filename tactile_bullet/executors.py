@@ -43,7 +43,7 @@ def run_task(task: GraspTask) -> Outcome:
     from .grasp import simulate_grasp
 
     try:
-        record = simulate_grasp(task.shape, task.params, task.pose, task.controller, task.seed)
+        record = simulate_grasp(task.target(), task.params, task.pose, task.controller, task.seed)
     except Exception as exc:  # noqa: BLE001 - a failed grasp is data, not a crash of the run
         return f"{type(exc).__name__}: {exc}"
     return record.metadata(), record.arrays()

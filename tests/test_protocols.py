@@ -206,3 +206,23 @@ def test_scaled_hand_has_longer_fingers_and_the_same_palm():
     assert np.linalg.norm(tip2 - knuckle2) == pytest.approx(
         1.03 * np.linalg.norm(tip1 - knuckle1), rel=1e-4
     )
+
+
+def test_settled_averages_the_plateau_not_the_motion():
+    from tactile_bullet.robust import settled
+
+    ramp = np.linspace(0.0, 1.0, 60)
+    series = np.stack([np.minimum(ramp, 0.4), ramp], axis=1)  # joint 0 stops at 0.4 early
+    assert np.allclose(settled(series), [0.4, series[-3:, 1].mean()])  # noiseless: exact
+    sigma = math.radians(1.0)
+    plateau_err, last3_err, moving_err = [], [], []
+    for seed in range(30):
+        noisy = series + np.random.default_rng(seed).normal(0.0, sigma, series.shape)
+        est = settled(noisy)
+        plateau_err.append(abs(est[0] - 0.4))
+        last3_err.append(abs(noisy[-3:, 0].mean() - 0.4))
+        moving_err.append(abs(est[1] - series[-3:, 1].mean()))
+    # the stopped joint is averaged over (most of) its plateau: far less error than 3 samples
+    assert np.mean(plateau_err) < 0.6 * np.mean(last3_err)
+    # the joint still moving is not dragged toward its past
+    assert np.mean(moving_err) < sigma

@@ -24,6 +24,7 @@ from ..errors import UsageError
 
 COMMANDS: tuple[str, ...] = (
     "shapes",
+    "shape_info",
     "grasp",
     "generate",
     "verify",

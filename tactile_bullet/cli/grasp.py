@@ -17,6 +17,7 @@ from .common import (
     parse_rotation,
     seed_number,
 )
+from .shape_info import add_mesh_options, mesh_block, mesh_shape, mesh_summary
 
 
 def add_parser(sub) -> None:
@@ -25,7 +26,10 @@ def add_parser(sub) -> None:
         help="simulate one enclosure grasp (thesis Algorithm 1) on a shape",
         description="Simulate one enclosure grasp of the Shadow hand on a static object.",
     )
-    parser.add_argument("--shape", required=True, help="shape name (see `tactile-bullet shapes`)")
+    what = parser.add_mutually_exclusive_group(required=True)
+    what.add_argument("--shape", help="shape name (see `tactile-bullet shapes`)")
+    what.add_argument("--mesh", metavar="FILE", help="a mesh file (see docs/meshes.md)")
+    add_mesh_options(parser)
     parser.add_argument(
         "--param", action="append", metavar="KEY=VALUE", help="shape size in metres (repeatable)"
     )
@@ -85,7 +89,7 @@ def run(args: argparse.Namespace) -> int:
 
     from ..grasp import resolve_shape, timed_grasp
 
-    shape = resolve_shape(args.shape)
+    shape = mesh_shape(args) or resolve_shape(args.shape)
     hook = None
     if "snapshot" in outputs:
         from ..render import snapshot
@@ -120,10 +124,14 @@ def run(args: argparse.Namespace) -> int:
         "temporal": _temporal_block(record),
         "outputs": {k: str(v) for k, v in outputs.items()},
     }
+    if (mesh := mesh_block(shape)) is not None:
+        doc["mesh"] = mesh
     if args.json:
         emit_json(doc)
     else:
         _print_summary(doc)
+        if "mesh" in doc:
+            print(mesh_summary(doc["mesh"]))
     return 0
 
 

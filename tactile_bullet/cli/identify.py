@@ -15,6 +15,7 @@ from .common import (
     seed_number,
 )
 from .import_ import add_recording_options, identify_recording
+from .shape_info import add_mesh_options, mesh_shape
 
 
 def add_parser(sub) -> None:
@@ -31,6 +32,8 @@ def add_parser(sub) -> None:
     source.add_argument(
         "--recording", metavar="FILE", help="a real hand's recording (bag, CSV, Parquet)"
     )
+    source.add_argument("--mesh", metavar="FILE", help="simulate a grasp on this mesh file")
+    add_mesh_options(parser)
     parser.add_argument(
         "--param", action="append", metavar="KEY=VALUE", help="shape size in metres (repeatable)"
     )
@@ -60,7 +63,7 @@ def _record(args: argparse.Namespace):
 
     params = {k: parse_number(v, f"--param {k}") for k, v in parse_key_values(args.param).items()}
     pose = Pose(parse_offset(args.offset), parse_rotation(args.rotation))
-    return simulate_grasp(args.shape, params, pose, seed=args.seed)
+    return simulate_grasp(mesh_shape(args) or args.shape, params, pose, seed=args.seed)
 
 
 def run(args: argparse.Namespace) -> int:

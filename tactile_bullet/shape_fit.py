@@ -78,6 +78,10 @@ OFFSET_STEPS = (5, 4)
 REFINE_ROUNDS = 10
 """Moves or halvings of the pattern search's step after the grid."""
 
+REFINE_MARGIN = 40.0
+"""Families whose grid score is more than this above the best grid score keep their grid fit:
+refining them costs time and cannot bring them level."""
+
 _REACH_SAMPLES = 13
 _TABLE = {s.name: s for s in BUILTIN_SHAPES}
 _ZK = np.array([KNUCKLE_Z[f] for f in LONG_FINGERS])
@@ -408,6 +412,11 @@ def _family(name: str) -> _Family:
     return _Family(_TABLE[name])
 
 
+def fitted_shapes() -> tuple[str, ...]:
+    """Shapes the forward model covers (every built-in shape: each has a radius profile)."""
+    return tuple(_TABLE)
+
+
 def _resolve_family(shape: str | Shape) -> _Family:
     name = shape.name if isinstance(shape, Shape) else shape
     if name not in _TABLE:
@@ -424,12 +433,22 @@ def _costs(measured: np.ndarray, predicted: np.ndarray, cal: Calibration) -> np.
 
 def fit_family(angles, shape: str | Shape, calibration: Calibration | None = None) -> FamilyFit:
     """Sizes and offset of ``shape`` that best explain final angles (3, 4): grid, then a
-    batched pattern search (+-step along each normalised coordinate, halved when no move
-    helps)."""
+    batched pattern search (every neighbour at +-step in the normalised coordinates, the step
+    halved when no move helps)."""
     measured = measured_features(angles)
     cal = load_calibration() if calibration is None else calibration
     fam = _resolve_family(shape)
     return _fit(measured, [fam], cal)[fam.shape.name]
+
+
+@cache
+def _moves(dims: int) -> np.ndarray:
+    """Every neighbour at -1, 0, +1 step per coordinate (3**dims - 1 of them): size and
+    position trade off along diagonals (a larger object further out), which moves along one
+    axis at a time cannot follow."""
+    grid = np.stack(np.meshgrid(*[(-1.0, 0.0, 1.0)] * dims, indexing="ij"), -1)
+    moves = grid.reshape(-1, dims)
+    return moves[np.any(moves != 0, axis=1)]
 
 
 def _fit(measured: np.ndarray, fams: Sequence[_Family], cal: Calibration) -> dict[str, FamilyFit]:
@@ -442,11 +461,15 @@ def _fit(measured: np.ndarray, fams: Sequence[_Family], cal: Calibration) -> dic
         dims = fam.grid.shape[1]
         state.append(
             [fam, fam.grid[best], float(cost[best]), fam.spacing / 2.0,
-             np.concatenate([np.eye(dims), -np.eye(dims)])]
+             _moves(dims)]
         )  # fmt: skip
+    # only families whose grid score is near the best one's are worth refining
+    scores = [c + cal.penalty * len(f.names) for f, _, c, _, _ in state]
+    near = [k for k, sc in enumerate(scores) if sc <= min(scores) + REFINE_MARGIN]
     for _ in range(REFINE_ROUNDS):
         parts, owners = [], []
-        for k, (fam, z, _, step, moves) in enumerate(state):
+        for k in near:
+            fam, z, _, step, moves = state[k]
             cand = np.clip(z + moves * step, 0.0, 1.0)
             cand = cand[fam.valid(cand)]
             if cand.size:
@@ -515,7 +538,14 @@ def predicted_angles(
     if off.shape != (2,) or not np.all(np.isfinite(off)):
         raise UsageError("offset must be two finite numbers (m): along O-O', along the fingers")
     cal = load_calibration() if calibration is None else calibration
-    geo = geometric_features(
-        fam.shape, {k: np.array([v]) for k, v in values.items()}, off[None]
-    )
+    geo = geometric_features(fam.shape, {k: np.array([v]) for k, v in values.items()}, off[None])
     return cal.apply(geo)[0]
+
+
+def shape_fit_summary(record) -> dict | None:
+    """The ``shape_fit`` block of ``grasp --json`` for one record ({"shape", "params",
+    "offset_m", "residual", "scores"}), or None where its angles cannot be fitted."""
+    try:
+        return fit_shape(record.fci_angles()).summary()
+    except UsageError:
+        return None

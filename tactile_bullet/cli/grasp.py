@@ -98,6 +98,8 @@ def run(args: argparse.Namespace) -> int:
         from ..figures_signature import plot_grasp_signature
 
         plot_grasp_signature(record, outputs["plot"])
+    from ..shape_fit import shape_fit_summary
+
     doc = {
         "shape": record.shape,
         "params": dict(record.params),
@@ -110,6 +112,7 @@ def run(args: argparse.Namespace) -> int:
         "steps": record.steps,
         "flags": list(record.flags),
         "signature": signature,
+        "shape_fit": shape_fit_summary(record),
         "outputs": {k: str(v) for k, v in outputs.items()},
     }
     if args.json:

@@ -92,4 +92,5 @@ class ShapeFitClassifier(ClassifierMixin, BaseEstimator):
         return weights / weights.sum(axis=1, keepdims=True)
 
     def predict(self, X) -> np.ndarray:
-        return self.classes_[np.argmin(self.scores(X), axis=1)]
+        best = np.argmin(self.scores(X), axis=1)  # checks fitted before classes_ is read
+        return self.classes_[best]

@@ -231,7 +231,10 @@ def fit_markdown(report: dict) -> str:
         "(and the weights of each angle, the robust loss and the penalty per size parameter) "
         "comes from `tools/shape_fit_calibration.py` on thesis-preset grasps that are not on "
         "this grid (`tactile_bullet/data/shape_fit.json`). The family with the lowest "
-        "penalised score is the answer.",
+        "penalised score is the answer. The object's rotation about the palm normal is not "
+        "fitted: `python tools/shape_fit_calibration.py --data DIR --no-write` prints both "
+        "identifiers' rates on a thesis-preset dataset's rotated grasps (none are on this "
+        "grid), per rotation.",
         "",
         f"It names {fit['overall_rate']:.1%} of the same {report['grasps']} "
         f"grasps (the DTW matcher above: {fit['dtw_rate']:.1%}); median "

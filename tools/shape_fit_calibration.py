@@ -7,7 +7,9 @@ and fits, per finger and joint group (J3, J0 = J1 + J2), measured = intercept + 
 geometric + side * sideways fraction by least squares at the grasps' true sizes and offsets.
 The residual spread becomes each angle's sigma. The soft-L1 knee and the per-size-parameter
 penalty are then chosen from small candidate sets by identification accuracy on the same
-calibration grasps. Writes tactile_bullet/data/shape_fit.json.
+calibration grasps. Writes tactile_bullet/data/shape_fit.json. Finally it scores the fit and the
+DTW matcher on the dataset's rotated grasps (the model has no rotation parameter: these say how
+far the fit holds as the object turns about the palm normal).
 
 Usage: python tools/shape_fit_calibration.py --data DATASET_DIR [--no-write]
 """
@@ -70,9 +72,12 @@ def main() -> None:
     args = ap.parse_args()
 
     grid = evaluation_grid()
-    chosen, excluded = [], 0
+    chosen, excluded, rotated = [], 0, []
     for rec in records_from(args.data):
-        if rec.shape not in THESIS_SHAPES or rec.pose.rotation != 0.0:
+        if rec.shape not in THESIS_SHAPES:
+            continue
+        if rec.pose.rotation != 0.0:
+            rotated.append(rec)
             continue
         if config_key(rec.shape, rec.params, rec.pose.offset) in grid:
             excluded += 1
@@ -118,11 +123,32 @@ def main() -> None:
         excluded_on_evaluation_grid=excluded,
         calibration_accuracy=acc,
     )
-    if args.no_write:
-        return
-    path = ROOT / "tactile_bullet" / "data" / "shape_fit.json"
-    path.write_text(json.dumps(doc, indent=2) + "\n")
-    print(f"wrote {path.relative_to(ROOT)}")
+    if not args.no_write:
+        path = ROOT / "tactile_bullet" / "data" / "shape_fit.json"
+        path.write_text(json.dumps(doc, indent=2) + "\n")
+        print(f"wrote {path.relative_to(ROOT)}")
+    if rotated:
+        rotated_rates(rotated, sf.Calibration(**coef, loss_scale=scale, penalty=pen))
+
+
+def rotated_rates(records, cal) -> None:
+    """Fit and DTW identification rates on rotated grasps, per rotation (deg)."""
+    from tactile_bullet.patterns import identify, size_matched_library
+    from tactile_bullet.signature import signature_from_angles
+
+    library = size_matched_library()
+    rows = {}
+    for rec in records:
+        angles = rec.fci_angles()
+        fit = sf.fit_shape(angles, calibration=cal).shape == rec.shape
+        dtw = identify(signature_from_angles(angles), library).name == rec.shape
+        rows.setdefault(round(float(np.degrees(rec.pose.rotation))), []).append((fit, dtw))
+    both = [v for r in rows.values() for v in r]
+    print(f"rotated grasps: {len(both)}; shape fit {np.mean([f for f, _ in both]):.1%}, "
+          f"DTW {np.mean([d for _, d in both]):.1%}")  # fmt: skip
+    for deg, r in sorted(rows.items()):
+        print(f"  {deg:3d} deg: shape fit {np.mean([f for f, _ in r]):.1%}, "
+              f"DTW {np.mean([d for _, d in r]):.1%} ({len(r)} grasps)")  # fmt: skip
 
 
 if __name__ == "__main__":

@@ -29,9 +29,10 @@ to the measured angle is fitted on simulated grasps of the thesis preset whose c
 is not on ``tools/invariance.py``'s evaluation grid; its residual spread weights the fit.
 
 Identification: for each family, a precomputed grid of sizes x offsets (predicted angles cached
-at first use), then a batched pattern search around the best grid point. The score is the
-robust (soft-L1) sum of weighted residuals plus a penalty per size parameter; the lowest score
-wins.
+at first use: about a second), then, for the families whose grid score is near the best, a
+batched pattern search around the best grid point and a few damped Gauss-Newton steps. The
+score is the robust (soft-L1) sum of weighted residuals plus a penalty per size parameter; the
+lowest score wins.
 """
 
 from __future__ import annotations
@@ -79,7 +80,7 @@ OFFSET_STEPS = (8, 6)
 """Grid values of the offset along O-O' and along the fingers (none at 0 or +-10 mm, the
 evaluation grid's offsets)."""
 
-REFINE_ROUNDS = 5
+REFINE_ROUNDS = 3
 """Moves or halvings of the pattern search's step after the grid."""
 
 REFINE_MARGIN = 25.0
@@ -472,27 +473,23 @@ def _fit(measured: np.ndarray, fams: Sequence[_Family], cal: Calibration) -> dic
     scores = [c + cal.penalty * len(f.names) for f, _, c, _, _ in state]
     near = [k for k, sc in enumerate(scores) if sc <= min(scores) + REFINE_MARGIN]
     for _ in range(REFINE_ROUNDS):
-        parts, owners = [], []
+        parts = []
         for k in near:
             fam, z, _, step, moves = state[k]
             cand = np.clip(z + moves * step, 0.0, 1.0)
             cand = cand[fam.valid(cand)]
             if cand.size:
-                parts.append((cand, fam.sections(cand)))
-                owners.append(k)
+                parts.append((k, cand))
         if not parts:
             break
-        joined = [np.concatenate([p[1][i] for p in parts]) for i in range(4)]
-        cost = _costs(measured, cal.apply(_chain_features(*joined)), cal)
-        start = 0
-        for k, (cand, _) in zip(owners, parts, strict=True):
-            c = cost[start : start + len(cand)]
-            start += len(cand)
+        for (k, cand), pred in zip(parts, _predict(state, parts, cal), strict=True):
+            c = _costs(measured, pred, cal)
             j = int(np.argmin(c))
             if c[j] < state[k][2]:
                 state[k][1], state[k][2] = cand[j], float(c[j])
             else:
                 state[k][3] = state[k][3] / 2.0
+    _polish(measured, state, near, cal)
     out = {}
     for fam, z, cost, _, _ in state:
         values = fam.values(z[None])[0]
@@ -506,6 +503,61 @@ def _fit(measured: np.ndarray, fams: Sequence[_Family], cal: Calibration) -> dic
             predicted=predicted,
         )
     return out
+
+
+def _predict(state, parts, cal: Calibration) -> list[np.ndarray]:
+    """Predicted (n, 2, 4) angles of each (family index, candidates) in ``parts``, through one
+    pass of the finger chain over all of them."""
+    sections = [state[k][0].sections(cand) for k, cand in parts]
+    joined = [np.concatenate([sec[i] for sec in sections]) for i in range(4)]
+    pred = cal.apply(_chain_features(*joined))
+    sizes = np.cumsum([len(cand) for _, cand in parts])[:-1]
+    return np.split(pred, sizes)
+
+
+POLISH_STEPS = 4
+"""Levenberg-Marquardt steps after the pattern search: size and position trade off along
+curved valleys (a larger object further out) that fixed-ratio steps crawl along."""
+
+_DAMPING = (1e-3, 1e-1, 1e1)
+
+
+def _polish(measured: np.ndarray, state: list, near: list[int], cal: Calibration) -> None:
+    """Damped Gauss-Newton on the soft-L1 cost (reweighted least squares), the near families
+    in lockstep: per step one batch of finite-difference points, one of trial steps."""
+    h = 1e-3
+    for _ in range(POLISH_STEPS):
+        parts = []
+        for k in near:
+            z, dims = state[k][1], state[k][1].size
+            parts.append((k, np.clip(np.vstack([z, z + h * np.eye(dims)]), 0.0, 1.0)))
+        trials = []
+        for (k, pts), pred in zip(parts, _predict(state, parts, cal), strict=True):
+            e = ((measured - pred[0]) / cal.sigma).ravel()
+            jac = (-(pred[1:] - pred[0]) / cal.sigma).reshape(len(pts) - 1, -1).T
+            jac /= np.maximum(pts[1:] - pts[0], 1e-12).sum(axis=1)  # per unit of z
+            w = 1.0 / np.sqrt(1.0 + (e / cal.loss_scale) ** 2)
+            a = jac.T @ (w[:, None] * jac)
+            g = jac.T @ (w * e)
+            steps = []
+            for lam in _DAMPING:
+                m = a + lam * (np.diag(np.diag(a)) + 1e-9 * np.eye(len(g)))
+                try:
+                    steps.append(-np.linalg.solve(m, g))
+                except np.linalg.LinAlgError:
+                    continue
+            if steps:
+                cand = np.clip(pts[0] + np.array(steps), 0.0, 1.0)
+                cand = cand[state[k][0].valid(cand)]
+                if cand.size:
+                    trials.append((k, cand))
+        if not trials:
+            return
+        for (k, cand), pred in zip(trials, _predict(state, trials, cal), strict=True):
+            c = _costs(measured, pred, cal)
+            j = int(np.argmin(c))
+            if c[j] < state[k][2]:
+                state[k][1], state[k][2] = cand[j], float(c[j])
 
 
 def fit_shape(

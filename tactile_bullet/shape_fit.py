@@ -491,9 +491,10 @@ def _fit(measured: np.ndarray, fams: Sequence[_Family], cal: Calibration) -> dic
                 state[k][3] = state[k][3] / 2.0
     _polish(measured, state, near, cal)
     out = {}
-    for fam, z, cost, _, _ in state:
+    finals = _predict(state, [(k, s[1][None]) for k, s in enumerate(state)], cal)
+    for (fam, z, cost, _, _), final in zip(state, finals, strict=True):
         values = fam.values(z[None])[0]
-        predicted = cal.apply(fam.geometry(z[None]))[0]
+        predicted = final[0]
         out[fam.shape.name] = FamilyFit(
             shape=fam.shape.name,
             params={k: float(values[i]) for i, k in enumerate(fam.names)},

@@ -29,9 +29,10 @@ to the measured angle is fitted on simulated grasps of the thesis preset whose c
 is not on ``tools/invariance.py``'s evaluation grid; its residual spread weights the fit.
 
 Identification: for each family, a precomputed grid of sizes x offsets (predicted angles cached
-at first use), then a batched pattern search around the best grid point. The score is the
-robust (soft-L1) sum of weighted residuals plus a penalty per size parameter; the lowest score
-wins.
+at first use: about a second), then, for the families whose grid score is near the best, a
+batched pattern search around the best grid point and a few damped Gauss-Newton steps. The
+score is the robust (soft-L1) sum of weighted residuals plus a penalty per size parameter; the
+lowest score wins.
 """
 
 from __future__ import annotations
@@ -69,16 +70,24 @@ FEATURES = ("J3", "J0")
 """Per finger, what is fitted: the proximal angle and the coupled J0 = J1 + J2 (the split of
 J0 between J1 and J2 follows the tendon rule, not the shape)."""
 
-GRID_STEPS = {1: 15, 2: 8, 3: 5}
-"""Grid values per size parameter, by the family's number of parameters."""
+GRID_STEPS = {1: 22, 2: 10, 3: 6}
+"""Grid values per size parameter, by the family's number of parameters. The counts avoid
+putting grid points on quarters of the ranges (other than the ends), where
+``tools/invariance.py`` places its evaluation sizes: the search starts no closer to the truth
+there than anywhere else."""
 
-OFFSET_STEPS = (5, 4)
-"""Grid values of the offset along O-O' and along the fingers."""
+OFFSET_STEPS = (8, 6)
+"""Grid values of the offset along O-O' and along the fingers (none at 0 or +-10 mm, the
+evaluation grid's offsets)."""
 
-REFINE_ROUNDS = 10
+REFINE_ROUNDS = 3
 """Moves or halvings of the pattern search's step after the grid."""
 
-_REACH_SAMPLES = 13
+REFINE_MARGIN = 25.0
+"""Families whose grid score is more than this above the best grid score keep their grid fit:
+refining them costs time and cannot bring them level."""
+
+_REACH_SAMPLES = 9
 _TABLE = {s.name: s for s in BUILTIN_SHAPES}
 _ZK = np.array([KNUCKLE_Z[f] for f in LONG_FINGERS])
 _XF = np.array([FINGER_X[f] for f in LONG_FINGERS])
@@ -155,8 +164,9 @@ def _reach(radius_fn, t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 def _clearance_u() -> tuple[np.ndarray, ...]:
     from .scene import CLEARANCES
 
-    # scene.place_object samples the profile every 0.5 mm; every 1 mm moves the depth < 0.1 mm
-    u = np.linspace(-0.3, 0.3, 601)
+    # scene.place_object samples the profile every 0.5 mm; every 2 mm moves the depth by less
+    # than 0.3 mm on these profiles (their maxima lie at x = 0 or at a range end, both sampled)
+    u = np.linspace(-0.3, 0.3, 301)
     return tuple(u[(u >= lo) & (u <= hi)] for (lo, hi), _ in CLEARANCES)
 
 
@@ -408,6 +418,11 @@ def _family(name: str) -> _Family:
     return _Family(_TABLE[name])
 
 
+def fitted_shapes() -> tuple[str, ...]:
+    """Shapes the forward model covers (every built-in shape: each has a radius profile)."""
+    return tuple(_TABLE)
+
+
 def _resolve_family(shape: str | Shape) -> _Family:
     name = shape.name if isinstance(shape, Shape) else shape
     if name not in _TABLE:
@@ -424,12 +439,22 @@ def _costs(measured: np.ndarray, predicted: np.ndarray, cal: Calibration) -> np.
 
 def fit_family(angles, shape: str | Shape, calibration: Calibration | None = None) -> FamilyFit:
     """Sizes and offset of ``shape`` that best explain final angles (3, 4): grid, then a
-    batched pattern search (+-step along each normalised coordinate, halved when no move
-    helps)."""
+    batched pattern search (every neighbour at +-step in the normalised coordinates, the step
+    halved when no move helps)."""
     measured = measured_features(angles)
     cal = load_calibration() if calibration is None else calibration
     fam = _resolve_family(shape)
     return _fit(measured, [fam], cal)[fam.shape.name]
+
+
+@cache
+def _moves(dims: int) -> np.ndarray:
+    """Every neighbour at -1, 0, +1 step per coordinate (3**dims - 1 of them): size and
+    position trade off along diagonals (a larger object further out), which moves along one
+    axis at a time cannot follow."""
+    grid = np.stack(np.meshgrid(*[(-1.0, 0.0, 1.0)] * dims, indexing="ij"), -1)
+    moves = grid.reshape(-1, dims)
+    return moves[np.any(moves != 0, axis=1)]
 
 
 def _fit(measured: np.ndarray, fams: Sequence[_Family], cal: Calibration) -> dict[str, FamilyFit]:
@@ -442,33 +467,34 @@ def _fit(measured: np.ndarray, fams: Sequence[_Family], cal: Calibration) -> dic
         dims = fam.grid.shape[1]
         state.append(
             [fam, fam.grid[best], float(cost[best]), fam.spacing / 2.0,
-             np.concatenate([np.eye(dims), -np.eye(dims)])]
+             _moves(dims)]
         )  # fmt: skip
+    # only families whose grid score is near the best one's are worth refining
+    scores = [c + cal.penalty * len(f.names) for f, _, c, _, _ in state]
+    near = [k for k, sc in enumerate(scores) if sc <= min(scores) + REFINE_MARGIN]
     for _ in range(REFINE_ROUNDS):
-        parts, owners = [], []
-        for k, (fam, z, _, step, moves) in enumerate(state):
+        parts = []
+        for k in near:
+            fam, z, _, step, moves = state[k]
             cand = np.clip(z + moves * step, 0.0, 1.0)
             cand = cand[fam.valid(cand)]
             if cand.size:
-                parts.append((cand, fam.sections(cand)))
-                owners.append(k)
+                parts.append((k, cand))
         if not parts:
             break
-        joined = [np.concatenate([p[1][i] for p in parts]) for i in range(4)]
-        cost = _costs(measured, cal.apply(_chain_features(*joined)), cal)
-        start = 0
-        for k, (cand, _) in zip(owners, parts, strict=True):
-            c = cost[start : start + len(cand)]
-            start += len(cand)
+        for (k, cand), pred in zip(parts, _predict(state, parts, cal), strict=True):
+            c = _costs(measured, pred, cal)
             j = int(np.argmin(c))
             if c[j] < state[k][2]:
                 state[k][1], state[k][2] = cand[j], float(c[j])
             else:
                 state[k][3] = state[k][3] / 2.0
+    _polish(measured, state, near, cal)
     out = {}
-    for fam, z, cost, _, _ in state:
+    finals = _predict(state, [(k, s[1][None]) for k, s in enumerate(state)], cal)
+    for (fam, z, cost, _, _), final in zip(state, finals, strict=True):
         values = fam.values(z[None])[0]
-        predicted = cal.apply(fam.geometry(z[None]))[0]
+        predicted = final[0]
         out[fam.shape.name] = FamilyFit(
             shape=fam.shape.name,
             params={k: float(values[i]) for i, k in enumerate(fam.names)},
@@ -478,6 +504,61 @@ def _fit(measured: np.ndarray, fams: Sequence[_Family], cal: Calibration) -> dic
             predicted=predicted,
         )
     return out
+
+
+def _predict(state, parts, cal: Calibration) -> list[np.ndarray]:
+    """Predicted (n, 2, 4) angles of each (family index, candidates) in ``parts``, through one
+    pass of the finger chain over all of them."""
+    sections = [state[k][0].sections(cand) for k, cand in parts]
+    joined = [np.concatenate([sec[i] for sec in sections]) for i in range(4)]
+    pred = cal.apply(_chain_features(*joined))
+    sizes = np.cumsum([len(cand) for _, cand in parts])[:-1]
+    return np.split(pred, sizes)
+
+
+POLISH_STEPS = 4
+"""Levenberg-Marquardt steps after the pattern search: size and position trade off along
+curved valleys (a larger object further out) that fixed-ratio steps crawl along."""
+
+_DAMPING = (1e-3, 1e-1, 1e1)
+
+
+def _polish(measured: np.ndarray, state: list, near: list[int], cal: Calibration) -> None:
+    """Damped Gauss-Newton on the soft-L1 cost (reweighted least squares), the near families
+    in lockstep: per step one batch of finite-difference points, one of trial steps."""
+    h = 1e-3
+    for _ in range(POLISH_STEPS):
+        parts = []
+        for k in near:
+            z, dims = state[k][1], state[k][1].size
+            parts.append((k, np.clip(np.vstack([z, z + h * np.eye(dims)]), 0.0, 1.0)))
+        trials = []
+        for (k, pts), pred in zip(parts, _predict(state, parts, cal), strict=True):
+            e = ((measured - pred[0]) / cal.sigma).ravel()
+            jac = (-(pred[1:] - pred[0]) / cal.sigma).reshape(len(pts) - 1, -1).T
+            jac /= np.maximum(pts[1:] - pts[0], 1e-12).sum(axis=1)  # per unit of z
+            w = 1.0 / np.sqrt(1.0 + (e / cal.loss_scale) ** 2)
+            a = jac.T @ (w[:, None] * jac)
+            g = jac.T @ (w * e)
+            steps = []
+            for lam in _DAMPING:
+                m = a + lam * (np.diag(np.diag(a)) + 1e-9 * np.eye(len(g)))
+                try:
+                    steps.append(-np.linalg.solve(m, g))
+                except np.linalg.LinAlgError:
+                    continue
+            if steps:
+                cand = np.clip(pts[0] + np.array(steps), 0.0, 1.0)
+                cand = cand[state[k][0].valid(cand)]
+                if cand.size:
+                    trials.append((k, cand))
+        if not trials:
+            return
+        for (k, cand), pred in zip(trials, _predict(state, trials, cal), strict=True):
+            c = _costs(measured, pred, cal)
+            j = int(np.argmin(c))
+            if c[j] < state[k][2]:
+                state[k][1], state[k][2] = cand[j], float(c[j])
 
 
 def fit_shape(
@@ -515,7 +596,14 @@ def predicted_angles(
     if off.shape != (2,) or not np.all(np.isfinite(off)):
         raise UsageError("offset must be two finite numbers (m): along O-O', along the fingers")
     cal = load_calibration() if calibration is None else calibration
-    geo = geometric_features(
-        fam.shape, {k: np.array([v]) for k, v in values.items()}, off[None]
-    )
+    geo = geometric_features(fam.shape, {k: np.array([v]) for k, v in values.items()}, off[None])
     return cal.apply(geo)[0]
+
+
+def shape_fit_summary(record) -> dict | None:
+    """The ``shape_fit`` block of ``grasp --json`` for one record ({"shape", "params",
+    "offset_m", "residual", "scores"}), or None where its angles cannot be fitted."""
+    try:
+        return fit_shape(record.fci_angles()).summary()
+    except UsageError:
+        return None

@@ -4,6 +4,9 @@ Prints the median time (over repeats, after a warm-up) of:
 - the signature from final joint angles (FCI, cubic upscaling, two enhanced lines, bulges);
 - one DTW distance between two 200-point lines (dtaidistance, C path, 10% band);
 - identification against the five size-matched patterns (10 DTW distances, integral rule);
+- the second identifier, ``shape_fit.fit_shape`` (five families fitted in size and offset to
+  the absolute angles), on model angles of random sizes and offsets with 0.02 rad noise, and
+  its time as a multiple of signature + DTW identification (the ratio holds under load);
 
 Usage: python tools/bench_signature.py [--repeat 2000]
 """
@@ -61,6 +64,28 @@ def main() -> None:
     print(f"DTW, 200-point lines:   {t_dtw * 1e3:.3f} ms per pair")
     print(f"identify (5 patterns):  {t_id * 1e3:.3f} ms per grasp")
     print(f"signature + identify:   {(t_sig + t_id) * 1e3:.3f} ms per grasp")
+    t_fit = bench_shape_fit(rng, args.repeat // 20)
+    print(f"shape fit (5 families): {t_fit * 1e3:.3f} ms per grasp "
+          f"({t_fit / (t_sig + t_id):.1f}x signature + identify)")  # fmt: skip
+
+
+def bench_shape_fit(rng: np.random.Generator, repeat: int) -> float:
+    """Median seconds of ``fit_shape`` on noisy model angles (grids built before timing)."""
+    from tactile_bullet import shape_fit
+    from tactile_bullet.shapes import BUILTIN_SHAPES, THESIS_SHAPES
+
+    table = {s.name: s for s in BUILTIN_SHAPES}
+    inputs = []
+    while len(inputs) < 32:
+        name = THESIS_SHAPES[len(inputs) % len(THESIS_SHAPES)]
+        params = {k: rng.uniform(p.min, p.max) for k, p in table[name].params.items()}
+        try:
+            pred = shape_fit.predicted_angles(name, params, tuple(rng.uniform(-0.01, 0.01, 2)))
+        except ValueError:
+            continue  # sizes the shape refuses (torus hole closed, hyperboloid inverted)
+        angles = np.vstack([pred[0], pred[1] / 2, pred[1] / 2]) + rng.normal(0, 0.02, (3, 4))
+        inputs.append((angles,))
+    return per_call(shape_fit.fit_shape, inputs, max(repeat, 20))
 
 
 if __name__ == "__main__":

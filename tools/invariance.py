@@ -14,10 +14,18 @@ grasp's signature and its DTW distances to the five theoretical patterns, and re
   off if neither helps; correspondence: the largest distance of a correct match),
   written to tactile_bullet/data/identification.json for ``patterns.identify``.
 
+The second training-free identifier, ``shape_fit.fit_shape`` (each family's sizes and offset
+fitted to the absolute J3 and J1 + J2 angles), runs on the same grasps: its rate, confusion and
+fitted-size errors (of the true family's fit) are a section of the same page.
+``--identifier fit`` puts its names in the main tables instead (printed only: the thresholds and
+ranges in identification.json are the DTW matcher's).
+
 Usage: python tools/invariance.py [--workers 2] [--cache /tmp/invariance.json] [--quick]
-[--correction none|position|dynamic] (about 1 min on 2 cores; --cache reuses simulated angles
-between runs). ``--correction`` identifies each grasp on its signature with the fingers that
-detector (thesis ch. 3) finds out of contact dropped; it prints only, and writes nothing.
+[--correction none|position|dynamic] [--identifier dtw|fit] (about 1 min on 2 cores; --cache
+reuses simulated angles between runs). ``--correction`` identifies each grasp on its signature
+with the fingers that detector (thesis ch. 3) finds out of contact dropped; it prints only, and
+writes nothing. ``--identifier fit`` fills the main tables with the shape fit's names (prints
+only).
 """
 
 from __future__ import annotations
@@ -182,6 +190,104 @@ def analyse(rows: list[dict], correction: str = "none") -> dict:
     }
 
 
+def fit_rows(rows: list[dict]) -> float:
+    """Shape-fit identification of every graspable thesis-shape row (``fit_identified``,
+    ``fit_params``: the true family's fitted sizes); returns the median seconds per grasp."""
+    from tactile_bullet.shape_fit import fit_shape
+
+    times = []
+    for row in rows:
+        if "angles" not in row or row["shape"] not in THESIS_SHAPES:
+            continue
+        start = time.perf_counter()
+        fit = fit_shape(np.array(row["angles"]))
+        times.append(time.perf_counter() - start)
+        row["fit_identified"] = fit.shape
+        row["fit_params"] = fit.fits[row["shape"]].params
+    return float(np.median(times)) if times else float("nan")
+
+
+def size_errors(rows: list[dict]) -> dict:
+    """Per shape and size parameter: mean absolute (mm) and mean relative error of the true
+    family's fitted size."""
+    out = {}
+    for name in THESIS_SHAPES:
+        mine = [r for r in rows if r["shape"] == name and "fit_params" in r]
+        if not mine:
+            continue
+        out[name] = {
+            k: {
+                "mean_abs_mm": float(
+                    np.mean([abs(r["fit_params"][k] - r["params"][k]) for r in mine]) * 1000
+                ),
+                "mean_rel": float(
+                    np.mean(
+                        [abs(r["fit_params"][k] - r["params"][k]) / r["params"][k] for r in mine]
+                    )
+                ),  # fmt: skip
+            }
+            for k in TABLE[name].params
+        }
+    return out
+
+
+def fit_markdown(report: dict) -> str:
+    """The shape-fit section of the page."""
+    fit = report["shape_fit"]
+    lines = [
+        "",
+        "## Second identifier: size and position fit to the absolute angles",
+        "",
+        "`shape_fit.fit_shape` (classifier `shape-fit` on the `raw-joints` descriptor; "
+        "`grasp --json` block `shape_fit`) keeps the scale the signature's normalisation "
+        "removes. For each family it searches the sizes and the object's offset (along O-O' "
+        "within +-20 mm, along the fingers within +-15 mm) whose predicted J3 and J1 + J2 "
+        "per long finger best match the measured ones: each finger closes as Algorithm 1 "
+        "closes it, a chain of the URDF's capsules turning joint by joint until it meets the "
+        "object's section (theta = s / r(x) played out on the hand's own knuckles), and a "
+        "finger with nothing under it closes to its limits, so a far finger is predicted "
+        "rather than corrupting the fit. A per-finger linear correction of that geometry "
+        "(and the weights of each angle, the robust loss and the penalty per size parameter) "
+        "comes from `tools/shape_fit_calibration.py` on thesis-preset grasps that are not on "
+        "this grid (`tactile_bullet/data/shape_fit.json`). The family with the lowest "
+        "penalised score is the answer. The object's rotation about the palm normal is not "
+        "fitted: `python tools/shape_fit_calibration.py --data DIR --no-write` prints both "
+        "identifiers' rates on a thesis-preset dataset's rotated grasps (none are on this "
+        "grid), per rotation.",
+        "",
+        f"It names {fit['overall_rate']:.1%} of the same {report['grasps']} "
+        f"grasps (the DTW matcher above: {fit['dtw_rate']:.1%}); median "
+        f"{fit['median_ms']:.1f} ms per grasp in this run (a shared machine: see "
+        "`tools/bench_signature.py` for the ratio to DTW). Per shape, rate and by size "
+        "fraction (0 .. 1):",
+        "",
+        "| shape | rate | by size fraction (0 .. 1) |",
+        "|---|---|---|",
+    ]
+    for name, v in fit["shapes"].items():
+        sizes = " ".join(
+            f"{s['rate']:.0%}" if s["n"] else "-" for s in v["by_size_fraction"].values()
+        )
+        lines.append(f"| {name} | {v['rate']:.0%} | {sizes} |")
+    lines += ["", "Confusion (rows: true shape, columns: identified by the fit):", ""]
+    for name, row in fit["confusion"].items():
+        lines.append(f"- {name}: {row}")
+    lines += [
+        "",
+        "Fitted size error of the true family's fit (mean absolute, mean relative). The "
+        "hyperboloid's profile fixes its waist and its curvature, not end radius and length "
+        "apart, and the fingers (within +-43 mm of the centre) never reach the end of most "
+        "cylinders and cones, so those lengths are barely observed:",
+        "",
+        "| shape | parameter | mean abs error | mean relative error |",
+        "|---|---|---|---|",
+    ]
+    for name, params in fit["size_errors"].items():
+        for k, v in params.items():
+            lines.append(f"| {name} | {k} | {v['mean_abs_mm']:.1f} mm | {v['mean_rel']:.0%} |")
+    return "\n".join(lines) + "\n"
+
+
 def rate(rows: list[dict]) -> tuple[float, int]:
     got = [r for r in rows if "identified" in r]
     if not got:
@@ -322,11 +428,31 @@ def main() -> None:
         "--correction", choices=("none", "position", "dynamic"), default="none",
         help="drop the fingers this detector finds out of contact (prints only)",
     )  # fmt: skip
+    ap.add_argument(
+        "--identifier", choices=("dtw", "fit"), default="dtw",
+        help="whose names fill the main tables (fit: printed only)",
+    )  # fmt: skip
     args = ap.parse_args()
 
     rows = simulate(jobs(args.quick), args.workers, args.cache)
     thresholds = analyse(rows, args.correction)
     thesis_rows = [r for r in rows if r["shape"] in THESIS_SHAPES]
+    median_s = fit_rows(thesis_rows)
+    dtw_rate = rate(thesis_rows)[0]
+    for r in thesis_rows:
+        r["dtw_identified"] = r.get("identified")
+    fitted = [dict(r, identified=r["fit_identified"]) for r in thesis_rows if "fit_identified" in r]
+    fit_report = {
+        "overall_rate": rate(fitted)[0],
+        "dtw_rate": dtw_rate,
+        "median_ms": median_s * 1000,
+        "shapes": ranges(fitted),
+        "confusion": confusion(fitted),
+        "size_errors": size_errors(thesis_rows),
+    }
+    if args.identifier == "fit":
+        thesis_rows = fitted
+        args.no_write = True
     shapes = ranges(thesis_rows)
     inside = [
         r
@@ -358,8 +484,9 @@ def main() -> None:
         "confusion": confusion(thesis_rows),
         "modified_shapes": modified,
         "modified_identified": confusion([r for r in rows if r["shape"] in MODIFIED]),
+        "shape_fit": fit_report,
     }
-    print(markdown(report))
+    print(markdown(report) + fit_markdown(report))
     if args.correction != "none":
         dropped = sum(not all(r["keep"][args.correction]) for r in thesis_rows if "keep" in r)
         print(f"correction {args.correction}: fingers dropped in {dropped} of {n} grasps")
@@ -369,7 +496,7 @@ def main() -> None:
     (ROOT / "docs" / "signature_invariance.json").write_text(
         json.dumps(report, indent=2, default=float) + "\n"
     )
-    (ROOT / "docs" / "signature_invariance.md").write_text(markdown(report))
+    (ROOT / "docs" / "signature_invariance.md").write_text(markdown(report) + fit_markdown(report))
     data = {
         "correspondence_threshold": thresholds["correspondence_threshold"],
         "integral_threshold": thresholds["integral_threshold"],

@@ -1,6 +1,7 @@
-"""Built-in plugin: registers ``svm``, ``knn``, ``som``, ``dtw-template``, ``tcn`` (on the
-``time-series`` descriptor) and, when its module is present, ``neural-forest``. Factories
-import their estimator on first use, so loading the registry does not import scikit-learn."""
+"""Built-in plugin: registers ``svm``, ``knn``, ``som``, ``dtw-template``, ``shape-fit``
+(training-free, on ``raw-joints``), ``tcn`` (on the ``time-series`` descriptor) and, when its
+module is present, ``neural-forest``. Factories import their estimator on first use, so loading
+the registry does not import scikit-learn."""
 
 from __future__ import annotations
 
@@ -33,6 +34,12 @@ def dtw_template(**params):
     return DTWTemplateClassifier(**params)
 
 
+def shape_fit(**params):
+    from .shape_fit import ShapeFitClassifier
+
+    return ShapeFitClassifier(**params)
+
+
 def neural_forest(**params):
     from ..neural_forest import NeuralForestClassifier
 
@@ -52,5 +59,6 @@ def register_classifiers(register):
     register("som", som)
     register("dtw-template", dtw_template)
     register("tcn", tcn)
+    register("shape-fit", shape_fit)
     if importlib.util.find_spec("tactile_bullet.neural_forest") is not None:
         register("neural-forest", neural_forest)

@@ -109,6 +109,8 @@ def run(args: argparse.Namespace) -> int:
         from ..figures_signature import plot_grasp_signature
 
         plot_grasp_signature(record, outputs["plot"])
+    from ..shape_fit import shape_fit_summary
+
     doc = {
         "shape": record.shape,
         "params": dict(record.params),
@@ -122,6 +124,7 @@ def run(args: argparse.Namespace) -> int:
         "flags": list(record.flags),
         "signature": signature,
         "temporal": _temporal_block(record),
+        "shape_fit": shape_fit_summary(record),
         "outputs": {k: str(v) for k, v in outputs.items()},
     }
     if (mesh := mesh_block(shape)) is not None:

@@ -29,6 +29,11 @@ def add_parser(sub) -> None:
     parser.add_argument("--n-updates", type=int, default=300, help="updates per new forest")
     parser.add_argument("--recalibration", type=int, default=100, help="updates per old forest")
     parser.add_argument("--memory", type=int, default=500, help="replay memory size")
+    parser.add_argument(
+        "--no-whiten", dest="whiten", action="store_false",
+        help="train the forests on standardised inputs without whitening (the model before "
+        "whitening became the default; see neural_forest.py)",
+    )  # fmt: skip
     parser.add_argument("--classes", type=int, default=7, help="--synthetic classes")
     parser.add_argument("--per-class", type=int, default=300, help="--synthetic samples")
     parser.add_argument("--features", type=int, default=40, help="--synthetic features")

@@ -47,8 +47,8 @@ do not outweigh the two bulge columns in an RBF kernel's distance. Signature + s
 six splits of the demo protocol (``python tools/bench_accuracy.py --seeds 0,1,2,3,4,5
 [--descriptor-param points=50]``): 95.8% at 10 points, 93.0% at 50. The other classifiers lean
 the other way on the same splits (``... --classifier knn --descriptor-param points=50``):
-neural-forest 87.8% at 50 points vs 83.3% at 10, knn 86.2% vs 82.2%, som 82.8% vs 77.7%, so
-give them ``--descriptor-param points=50``."""
+knn 86.2% vs 82.2%, som 82.8% vs 77.7%, so give them ``--descriptor-param points=50``. The
+neural forest, which trains in whitened coordinates, prefers 10 (seeds 0-3: 95.8% vs 91.0%)."""
 
 SIGNATURE_FLOOR = 0.05
 """Default flatness floor of the enhancement (``signature.enhance``): a line whose deviations

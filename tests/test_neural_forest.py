@@ -210,10 +210,10 @@ def test_a_huge_forest_is_refused_before_anything_is_allocated(problem) -> None:
 
 
 def test_the_estimate_doubles_with_each_level_and_defaults_are_small() -> None:
-    small = NeuralForestClassifier().memory_estimate(50, 7)
-    deeper = NeuralForestClassifier(depth=5).memory_estimate(50, 7)
-    assert small < 50 * 1024**2
-    assert 1.8 < deeper / small < 2.1
+    assert NeuralForestClassifier().memory_estimate(50, 7) < 50 * 1024**2
+    deep = NeuralForestClassifier(depth=10).memory_estimate(50, 7)
+    deeper = NeuralForestClassifier(depth=11).memory_estimate(50, 7)
+    assert 1.9 < deeper / deep < 2.1
 
 
 def test_partial_fit_checks_the_size_with_the_new_classes(problem) -> None:
@@ -270,3 +270,31 @@ def test_cli_refuses_cuda_on_a_cpu_build_and_huge_depth_with_one_line(capsys, tm
     err = run_error(capsys, [*base, "--param", "depth=40", *out])
     assert "PiB" in err and "limit" in err
     assert not (tmp_path / "m.npz").exists()
+
+
+def test_whitening_decorrelates_each_trees_inputs_and_is_undone_exactly() -> None:
+    from tactile_bullet.neural_forest import _whitening
+
+    rng = np.random.default_rng(0)
+    base = rng.normal(size=(300, 3))
+    xs = np.hstack([base, base @ rng.normal(size=(3, 3)) + 0.1 * rng.normal(size=(300, 3))])
+    idx = np.array([[0, 3, 4, 5], [1, 2, 3, 5]])
+    basis, inverse = _whitening(xs, idx)
+    for g in range(2):
+        z = xs[:, idx[g]] @ basis[g]
+        np.testing.assert_allclose(np.cov(z, rowvar=False), np.eye(4), atol=1e-9)
+        np.testing.assert_allclose(basis[g] @ inverse[g], np.eye(4), atol=1e-9)
+
+
+def test_whitened_training_stores_weights_that_predict_in_standardised_coordinates(
+    problem,
+) -> None:
+    """Whitening only reparametrises training: the stored model routes standardised inputs
+    like an unwhitened one, and re-fitting from it (partial_fit) keeps it working."""
+    X_train, X_test, y_train, y_test = problem
+    model = NeuralForestClassifier(random_state=0, **SMALL).fit(X_train, y_train)
+    plain = NeuralForestClassifier(random_state=0, whiten=False, **SMALL).fit(X_train, y_train)
+    assert model.split_weights_.shape == plain.split_weights_.shape
+    assert model.score(X_test, y_test) > 0.8
+    model.partial_fit(X_train[y_train == 0], y_train[y_train == 0])
+    assert model.score(X_test, y_test) > 0.8

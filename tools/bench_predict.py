@@ -6,6 +6,9 @@ is trained on the same records, then timed on single records (median of ``--repe
 over the test records), with the libraries' default threads and with one thread (on a single
 feature row, thread start-up costs more than it saves, badly so on a busy machine). Target:
 <= 5 ms per grasp, counted as descriptor + the faster of the two predictions.
+Every registered descriptor x compatible classifier is timed, so the ``time-series``
+descriptor and the ``tcn`` classifier (which reads only it) join the table; the tcn predicts in
+numpy, so its row does not pay for a torch import.
 ``tactile-bullet --help`` is timed in fresh processes (median); target < 1 s.
 
     python tools/bench_predict.py                  # simulates a small set (about a minute)

@@ -45,6 +45,11 @@ def add_parser(sub) -> None:
     parser.add_argument(
         "--memory", type=count(0, 1_000_000), default=500, help="replay memory size"
     )
+    parser.add_argument(
+        "--no-whiten", dest="whiten", action="store_false",
+        help="train the forests on standardised inputs without whitening (the model before "
+        "whitening became the default; see neural_forest.py)",
+    )  # fmt: skip
     parser.add_argument("--classes", type=count(2, 1000), default=7, help="--synthetic classes")
     parser.add_argument(
         "--per-class", type=count(3, 1_000_000), default=300, help="--synthetic samples"

@@ -179,7 +179,8 @@ class NeuralForestClassifier(ClassifierMixin, BaseEstimator):
         The other way on the sequential preset (7 classes incl. the rot90 ones, random split,
         signature + contact-normals, 3 orders of ``tactile-bullet sequential --orders 3``):
         offline 0.894 with vs 0.926 without, sequential 0.887 vs 0.904, though the worst
-        disturbance halves (-0.15 vs -0.35); ``sequential --no-whiten`` runs the former.
+        disturbance halves (-0.15 vs -0.35); so ``tactile-bullet sequential`` keeps the
+        unwhitened forests by default (its README figures) and ``--whiten`` runs these.
     device : str
         Torch device for training ("cpu", "cuda"); prediction runs in numpy. A device this
         torch build or machine lacks is refused (``UsageError``) when ``fit`` starts.

@@ -91,7 +91,7 @@ def model(args: argparse.Namespace, seed: int, **overrides: Any) -> NeuralForest
         "n_updates": args.n_updates,
         "n_recalibration_updates": args.recalibration,
         "memory_size": args.memory,
-        "whiten": getattr(args, "whiten", True),
+        "whiten": getattr(args, "whiten", False),
         "random_state": seed,
     }
     return NeuralForestClassifier(**{**params, **overrides})

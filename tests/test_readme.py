@@ -24,6 +24,7 @@ SUBSTITUTIONS: tuple[tuple[str, str, str], ...] = (
     ("--preset thesis", "--preset smoke", "1,143 grasps -> 4"),
     ("--preset sequential", "--config small-sequential.toml", "280 grasps -> 9 (3 classes)"),
     ("samples = 20", "samples = 1", "the held-out set: 100 grasps -> 5"),
+    ("--preset temporal", "--preset smoke", "198 grasps with fingers off the object -> 4"),
     (
         "--classifier svm,som,neural-forest",
         "--classifier svm,som",

@@ -193,7 +193,8 @@ def place_object(shape: Shape, params: Mapping[str, float], pose: Pose) -> Place
     # the depth (a dense profile, not the mesh vertices: a cone's mesh has none mid-length).
     u = np.linspace(-0.3, 0.3, 1201)
     x = u * np.cos(pose.rotation)
-    radius = shape.radius(u, **params)
+    # a mesh's sections reach toward the palm further than their equivalent circles
+    radius = (getattr(shape, "palm_reach", None) or shape.radius)(u, **params)
     y0 = 0.0
     for (lo, hi), depth in CLEARANCES:
         reach = radius[(x >= lo) & (x <= hi)]

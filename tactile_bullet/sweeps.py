@@ -21,6 +21,10 @@ Example::
     rotation_deg = [0, 10, 20]
 
 A size parameter left out takes its default (grid) or its whole valid range (random).
+
+Mesh files join a sweep as ``[[objects]]`` tables (``file = "mug.stl"`` with optional ``name``,
+``unit``, ``scale``, ``axis``; or ``folder = "objects/"`` for every mesh file in it), with the
+same pose keys as a shape; their grasps are labelled with the object names (``meshes.py``).
 """
 
 from __future__ import annotations
@@ -30,18 +34,35 @@ import tomllib
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field, fields
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from .errors import UsageError
-from .records import ControllerSettings, Pose, controller_dict
+from .records import (
+    MAX_OFFSET_M,
+    MAX_ROTATION_DEG,
+    ControllerSettings,
+    Pose,
+    controller_dict,
+)
+
+if TYPE_CHECKING:
+    from .meshes import MeshSource
+    from .shapes import Shape
 
 Dimension = tuple[float, ...] | dict[str, float]
 """A list of values, or {"min", "max"} (+ "steps" in grid mode)."""
 
+MAX_GRASPS = 1_000_000
+"""Most grasps one sweep may hold. Its tasks are built in memory before any simulation
+(about 1 kB each), and a million grasps is already days of simulation on a few cores; a typo
+such as ``samples = 1000000000`` or a grid of 1e12 points is refused before anything is
+allocated (:meth:`Sweep.size`). Split larger collections into several datasets."""
+
 SHAPE_KEYS = ("name", "params", "offset_x", "offset_y", "offset_z", "rotation_deg", "samples")
-SWEEP_KEYS = ("name", "mode", "samples", "controller", "shapes")
+SWEEP_KEYS = ("name", "mode", "samples", "controller", "shapes", "objects")
+POSE_KEYS = ("offset_x", "offset_y", "offset_z", "rotation_deg", "samples")
 
 
 @dataclass(frozen=True)
@@ -54,6 +75,12 @@ class GraspTask:
     pose: Pose
     controller: ControllerSettings
     seed: int
+    mesh: MeshSource | None = None
+    """The mesh file an ``[[objects]]`` grasp is on (``shape`` is then its name)."""
+
+    def target(self) -> str | Shape:
+        """What ``simulate_grasp`` takes: the shape's name, or the processed mesh."""
+        return self.shape if self.mesh is None else self.mesh.shape()
 
 
 @dataclass(frozen=True)
@@ -68,18 +95,38 @@ class ShapeSweep:
 
 
 @dataclass(frozen=True)
+class ObjectSweep:
+    """One mesh file of an ``[[objects]]`` table, with the poses to grasp it at."""
+
+    source: MeshSource
+    offset_x: Dimension = (0.0,)
+    offset_y: Dimension = (0.0,)
+    offset_z: Dimension = (0.0,)
+    rotation_deg: Dimension = (0.0,)
+    samples: int | None = None
+
+    @property
+    def name(self) -> str:
+        return self.source.name
+
+
+@dataclass(frozen=True)
 class Sweep:
     name: str
     shapes: tuple[ShapeSweep, ...]
     mode: str = "grid"
     samples: int = 10
     controller: ControllerSettings = field(default_factory=ControllerSettings)
+    objects: tuple[ObjectSweep, ...] = ()
 
     # --- construction -------------------------------------------------------------------
 
     @classmethod
-    def from_dict(cls, data: Mapping[str, Any], source: str = "sweep") -> Sweep:
-        """Validate and build; every problem is a UsageError naming the key."""
+    def from_dict(
+        cls, data: Mapping[str, Any], source: str = "sweep", base: Path | None = None
+    ) -> Sweep:
+        """Validate and build; every problem is a UsageError naming the key. ``base``: the
+        folder relative mesh paths start from (the TOML's)."""
         _no_unknown(data, SWEEP_KEYS, source)
         mode = data.get("mode", "grid")
         if mode not in ("grid", "random"):
@@ -92,33 +139,48 @@ class Sweep:
         _no_unknown(controller_data, tuple(known), f"{source}: [controller]")
         try:
             controller = ControllerSettings(**controller_data)
-        except TypeError as exc:
+        except (TypeError, ValueError) as exc:  # UsageError is a ValueError
             raise UsageError(f"{source}: [controller] {exc}") from None
-        shapes_data = data.get("shapes")
-        if not isinstance(shapes_data, list) or not shapes_data:
-            raise UsageError(f"{source}: needs at least one [[shapes]] table")
+        shapes_data = data.get("shapes", [])
+        objects_data = data.get("objects", [])
+        if not isinstance(shapes_data, list) or not isinstance(objects_data, list):
+            raise UsageError(f"{source}: [[shapes]] and [[objects]] must be arrays of tables")
+        if not shapes_data and not objects_data:
+            raise UsageError(f"{source}: needs at least one [[shapes]] or [[objects]] table")
         shapes = tuple(_shape_sweep(s, mode, f"{source}: shapes[{i}]")
                        for i, s in enumerate(shapes_data))  # fmt: skip
+        objects = tuple(
+            o
+            for i, table in enumerate(objects_data)
+            for o in _object_sweeps(table, mode, f"{source}: objects[{i}]", base)
+        )
+        if objects:
+            from .meshes import check_sources
+
+            check_sources([o.source for o in objects])  # bad meshes fail before any grasp
         return cls(
             name=str(data.get("name", "sweep")),
             shapes=shapes,
             mode=mode,
             samples=samples,
             controller=controller,
+            objects=objects,
         )
 
     @classmethod
     def from_toml(cls, path: str | Path) -> Sweep:
         path = Path(path)
         try:
-            data = tomllib.loads(path.read_text())
+            data = tomllib.loads(path.read_text(encoding="utf-8"))
         except FileNotFoundError:
             raise UsageError(f"config file {path} does not exist") from None
         except OSError as exc:
             raise UsageError(f"cannot read config {path}: {exc.strerror or exc}") from None
+        except UnicodeDecodeError:
+            raise UsageError(f"{path} is not a UTF-8 text file (TOML must be UTF-8)") from None
         except tomllib.TOMLDecodeError as exc:
             raise UsageError(f"{path} is not valid TOML: {exc}") from None
-        return cls.from_dict(data, source=str(path))
+        return cls.from_dict(data, source=str(path), base=path.parent)
 
     def to_dict(self) -> dict[str, Any]:
         """JSON/TOML-ready form, stored in the dataset manifest (and compared on --resume)."""
@@ -128,17 +190,39 @@ class Sweep:
             "samples": self.samples,
             "controller": controller_dict(self.controller),
             "shapes": [_shape_dict(s) for s in self.shapes],
-        }
+        } | ({"objects": [_object_dict(o) for o in self.objects]} if self.objects else {})
 
     # --- expansion ----------------------------------------------------------------------
 
+    def size(self) -> int:
+        """How many grasps the sweep holds at most (before size combinations that make no
+        solid are left out), computed from the dimensions without expanding them."""
+        total = 0
+        for sweep in self.shapes:
+            if self.mode == "random":
+                total += sweep.samples or self.samples
+                continue
+            n = 1
+            for dim in (*sweep.params.values(), sweep.offset_x, sweep.offset_y,
+                        sweep.offset_z, sweep.rotation_deg):  # fmt: skip
+                n *= len(dim) if isinstance(dim, tuple) else int(dim["steps"])
+            total += n
+        return total
+
     def tasks(self, seed: int = 0) -> list[GraspTask]:
         """Every grasp of the sweep, in a fixed order, each with its own seed derived from
-        ``seed`` and its index (so any subset can be re-run and give the same records)."""
+        ``seed`` and its index (so any subset can be re-run and give the same records).
+        A sweep over :data:`MAX_GRASPS`, or one that leaves a shape with no valid size, is
+        refused before any work."""
         from .grasp import resolve_shape
 
+        if self.size() > MAX_GRASPS:
+            raise UsageError(
+                f"sweep {self.name!r} holds {self.size():,} grasps, over the limit of "
+                f"{MAX_GRASPS:,} per dataset: lower samples or steps, or split it"
+            )
         rng = np.random.default_rng(np.random.SeedSequence([int(seed), 0]))
-        specs: list[tuple[str, dict[str, float], Pose]] = []
+        specs: list[tuple[str, dict[str, float], Pose, MeshSource | None]] = []
         for sweep in self.shapes:
             shape = resolve_shape(sweep.name)
             dims: dict[str, Dimension] = {}
@@ -155,6 +239,11 @@ class Sweep:
                 rows = [r for r in _grid(dims) if geometry_ok(shape.name, _sizes(r))]
             else:
                 rows = _random(dims, sweep.samples or self.samples, rng, shape.name)
+            if not rows:
+                raise UsageError(
+                    f"sweep {self.name!r}: no size combination of {shape.name} makes a valid "
+                    "solid, so the sweep would simulate none of it"
+                )
             for row in rows:
                 params = _sizes(row)
                 shape.resolve(params)  # out-of-range sizes are refused before any work
@@ -162,11 +251,23 @@ class Sweep:
                     (row["offset_x"], row["offset_y"], row["offset_z"]),
                     math.radians(row["rotation_deg"]),
                 )
-                specs.append((sweep.name, params, pose))
+                specs.append((sweep.name, params, pose, None))
+        for obj in self.objects:
+            dims = {key: getattr(obj, key) for key in POSE_KEYS[:4]}
+            if self.mode == "grid":
+                rows = _grid(dims)
+            else:
+                rows = _random(dims, obj.samples or self.samples, rng, obj.name)
+            for row in rows:
+                pose = Pose(
+                    (row["offset_x"], row["offset_y"], row["offset_z"]),
+                    math.radians(row["rotation_deg"]),
+                )
+                specs.append((obj.name, {}, pose, obj.source))
         seeds = np.random.SeedSequence(int(seed)).generate_state(len(specs), dtype=np.uint32)
         return [
-            GraspTask(i, name, params, pose, self.controller, int(s))
-            for i, ((name, params, pose), s) in enumerate(zip(specs, seeds, strict=True))
+            GraspTask(i, name, params, pose, self.controller, int(s), mesh)
+            for i, ((name, params, pose, mesh), s) in enumerate(zip(specs, seeds, strict=True))
         ]
 
 
@@ -263,11 +364,37 @@ def _sequential() -> Sweep:
     return Sweep("sequential", tuple(shapes), mode="random", samples=40)
 
 
+def _temporal() -> Sweep:
+    """Chapter 3's validation grasps (thesis Figs 3.4, 3.8): the five thesis shapes at the small
+    end of their sizes, moved up to 30 mm sideways along O-O' so that the outer fingers often
+    miss the object, 40 random draws each (200 grasps)."""
+    from .shapes import BUILTIN_SHAPES
+
+    shapes = []
+    for shape in BUILTIN_SHAPES:
+        if not shape.thesis:
+            continue
+        small = {
+            k: {"min": p.min, "max": round(p.min + 0.4 * (p.max - p.min), 5)}
+            for k, p in shape.params.items()
+        }
+        shapes.append(
+            ShapeSweep(
+                shape.name,
+                small,
+                offset_x={"min": -0.03, "max": 0.03},
+                offset_z={"min": -0.005, "max": 0.005},
+            )
+        )
+    return Sweep("temporal", tuple(shapes), mode="random", samples=40)
+
+
 PRESETS = {
     "thesis": _thesis,
     "modified": _modified,
     "sequential": _sequential,
     "smoke": _smoke,
+    "temporal": _temporal,
 }
 
 
@@ -345,10 +472,48 @@ def _shape_sweep(data: Any, mode: str, where: str) -> ShapeSweep:
         for key in ("offset_x", "offset_y", "offset_z", "rotation_deg")
         if key in data
     }
+    for key, dim in kwargs.items():
+        # the CLI's bounds (records.Pose), checked here so the file's key is named
+        limit, unit = (MAX_ROTATION_DEG, "deg") if key == "rotation_deg" else (MAX_OFFSET_M, "m")
+        lo, hi = (min(dim), max(dim)) if isinstance(dim, tuple) else (dim["min"], dim["max"])
+        if lo < -limit or hi > limit:
+            raise UsageError(
+                f"{where} {key} spans [{lo:g}, {hi:g}] {unit}, outside [-{limit:g}, {limit:g}]"
+            )
     samples = data.get("samples")
     if samples is not None:
         samples = _positive_int(samples, f"{where} samples")
     return ShapeSweep(shape.name, params, samples=samples, **kwargs)
+
+
+def _object_sweeps(data: Any, mode: str, where: str, base: Path | None) -> list[ObjectSweep]:
+    from .meshes import OBJECT_KEYS, sources_from_table
+
+    _no_unknown(data, OBJECT_KEYS + POSE_KEYS, where)
+    poses = {
+        key: _dimension(data[key], mode, f"{where} {key}") for key in POSE_KEYS[:4] if key in data
+    }
+    samples = data.get("samples")
+    if samples is not None:
+        samples = _positive_int(samples, f"{where} samples")
+    sources = sources_from_table(data, where, base)
+    return [ObjectSweep(source, samples=samples, **poses) for source in sources]
+
+
+def _object_dict(o: ObjectSweep) -> dict[str, Any]:
+    """An object as the manifest stores it: absolute path and content hash, so a resumed or
+    re-simulated dataset refuses a file that changed since."""
+    src = o.source
+    out: dict[str, Any] = {
+        "file": src.path, "name": src.name, "sha256": src.sha256, "unit": src.unit,
+        "scale": src.scale, "axis": src.axis, "budget": src.budget,
+    }  # fmt: skip
+    for key in POSE_KEYS[:4]:
+        value = getattr(o, key)
+        out[key] = list(value) if isinstance(value, tuple) else dict(value)
+    if o.samples is not None:
+        out["samples"] = o.samples
+    return out
 
 
 def _shape_dict(s: ShapeSweep) -> dict[str, Any]:

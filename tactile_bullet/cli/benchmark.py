@@ -7,7 +7,7 @@ import argparse
 import sys
 
 from ..errors import UsageError
-from .common import emit_json, show_progress
+from .common import MAX_WORKERS, count, emit_json, log_lines, seed_number, show_progress
 
 
 def add_parser(sub) -> None:
@@ -42,8 +42,10 @@ def add_parser(sub) -> None:
         help="set sizes: full (24/12 grasps per shape), quick (8/4), tiny (5/2, the pytest "
         "comparison suite's)",
     )  # fmt: skip
-    parser.add_argument("--workers", type=int, default=2, help="simulation processes")
-    parser.add_argument("--seed", type=int, default=0, help="seed of the perturbations")
+    parser.add_argument(
+        "--workers", type=count(1, MAX_WORKERS), default=2, help="simulation processes"
+    )
+    parser.add_argument("--seed", type=seed_number, default=0, help="seed of the perturbations")
     parser.add_argument("--json", action="store_true", help="print the rows as one JSON list")
     parser.set_defaults(run=run)
 
@@ -59,7 +61,8 @@ def run(args: argparse.Namespace) -> int:
     classifiers = name_list(args.classifier, "--classifier", lambda: default_classifiers(scale))
     trainings = name_list(args.training, "--training", lambda: ())
     show = show_progress(args.json)
-    log = (lambda msg: print(msg, file=sys.stderr)) if show else None
+    # plain lines also where stderr is no terminal (a log file, CI): minutes of silence otherwise
+    log = (lambda msg: print(msg, file=sys.stderr, flush=True)) if log_lines(args.json) else None
     doc = run_benchmark(
         args.out, args.protocol, descriptors, classifiers, trainings,
         quick=scale, workers=args.workers, seed=args.seed, cache=args.cache,

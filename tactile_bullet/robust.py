@@ -24,7 +24,7 @@ cylinder's nearly flat lines become random curves). Two remedies, used together:
   classifier's margins are as wide as the sensor noise it will meet.
 
 Registered descriptors (default plugin): ``robust-signature`` (the signature of the zeroed,
-tail-averaged final angles) and ``robust-joints`` (raw-joints on them). Both need the time
+plateau-averaged final angles) and ``robust-joints`` (raw-joints on them). Both need the time
 series (records loaded with ``full=True``; recordings with at least ``reference + tail``
 samples).
 """
@@ -71,7 +71,7 @@ def zeroed(
     record: GraspRecord, reference: int = REFERENCE_SAMPLES, tail: int = TAIL_SAMPLES
 ) -> GraspRecord:
     """The record with every joint's open-hand reading subtracted (series and final angles)
-    and the final angles replaced by the mean of the last ``tail`` samples (module doc)."""
+    and the final angles replaced by each joint's settled plateau (:func:`settled`)."""
     reference = _check_count(reference, "reference samples")
     tail = _check_count(tail, "tail samples")
     angles = np.asarray(record.angles, dtype=float)

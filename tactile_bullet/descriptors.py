@@ -14,7 +14,9 @@ Built-in ones (zeroth-order data: proprioception; first-order: contact normals, 
   rotation), and with ``level=True`` the mean raw upper line (grey
   levels: how far the fingers closed, so the object's size), which lets ``dtw-template``
   compare with the theoretical pattern at the size the hand felt. Both are off by default so
-  the descriptor stays free of rotation and size, as the thesis' signature is.
+  the descriptor stays free of rotation and size, as the thesis' signature is. With
+  ``correction="position"`` or ``"dynamic"`` the signature is built from the fingers that
+  detector (``temporal.py``, thesis ch. 3) finds in contact only: SVM_pos and SVM_dyn.
 - ``raw-joints``: the final angles of the four long fingers (J4..J1, LF J5 too), and the
   thumb's J5..J1 with ``include_thumb=True`` (off by default: the thumb is held at a fixed
   opposed pose, so its angles carry little but noise).
@@ -22,6 +24,8 @@ Built-in ones (zeroth-order data: proprioception; first-order: contact normals, 
   averaged over the contacts on the distal and tip links weighted by normal force, and a
   contact indicator. A finger without such a contact gives the normal (0, 0, 0) and
   indicator 0, so the classifier sees "no contact" as a value of its own rather than NaN.
+- ``time-series``: the whole joint-angle and effort series of the grasp, resampled to a fixed
+  length (``time_series.py``; the ``tcn`` classifier's input).
 """
 
 from __future__ import annotations
@@ -100,6 +104,9 @@ class SignatureDescriptor:
     alpha: bool = False
     level: bool = False
     floor: float = SIGNATURE_FLOOR
+    correction: str = "none"
+    """Drop the fingers a non-contact detector flags before the signature is built (thesis
+    Fig 3.11): "none", "position" or "dynamic" (``temporal.py``; needs the time series)."""
     name: ClassVar[str] = "signature"
 
     def __post_init__(self) -> None:
@@ -119,6 +126,15 @@ class SignatureDescriptor:
             or not 0.0 <= float(floor) <= 1.0
         ):
             raise UsageError(f"signature floor must be a number from 0 to 1, got {floor!r}")
+        from .temporal import CORRECTIONS
+
+        if self.correction is None:  # `--descriptor-param correction=none` parses to None
+            object.__setattr__(self, "correction", "none")
+        if self.correction not in CORRECTIONS:
+            raise UsageError(
+                f"signature correction must be one of {', '.join(CORRECTIONS)}, "
+                f"got {self.correction!r}"
+            )
 
     @property
     def params(self) -> dict:
@@ -129,11 +145,15 @@ class SignatureDescriptor:
 
     def transform(self, records) -> np.ndarray:
         from .signature import signature_of
+        from .temporal import signature_corrected
 
         items = check_records(records)
         out = np.empty((len(items), len(self.feature_names())))
         for row, record in enumerate(items):
-            sig = signature_of(record, floor=float(self.floor))
+            if self.correction == "none":
+                sig = signature_of(record, floor=float(self.floor))
+            else:
+                sig = signature_corrected(record, self.correction, floor=float(self.floor))
             values = [
                 resample_line(sig.lower, self.points),
                 resample_line(sig.upper, self.points),
@@ -281,3 +301,6 @@ def register_descriptors(register):
     register(SignatureDescriptor.name, SignatureDescriptor)
     register(RawJointsDescriptor.name, RawJointsDescriptor)
     register(ContactNormalsDescriptor.name, ContactNormalsDescriptor)
+    from .time_series import TimeSeriesDescriptor
+
+    register(TimeSeriesDescriptor.name, TimeSeriesDescriptor)

@@ -9,10 +9,15 @@ processes). A worker that dies, even by a segfault, breaks a ``ProcessPoolExecut
 then re-runs the tasks that were in flight one at a time in a fresh single-worker pool, so the
 task that kills its worker is found, retried once, and recorded as failed, while the others
 complete.
+
+An interrupt (Ctrl-C, or SIGTERM, which the CLI turns into the same exception) or a consumer
+that stops reading terminates the workers at once instead of waiting for their grasps, so
+nothing of the run outlives it; the dataset is then finished with ``--resume``.
 """
 
 from __future__ import annotations
 
+import contextlib
 import multiprocessing
 import os
 import signal
@@ -70,11 +75,39 @@ def _set_environment(values: dict[str, str | None]) -> None:
             os.environ[name] = value
 
 
-def _pool(workers: int) -> ProcessPoolExecutor:
-    return ProcessPoolExecutor(
+@contextlib.contextmanager
+def _pool(workers: int) -> Iterator[ProcessPoolExecutor]:
+    """A pool whose workers are terminated, not waited for, when the block is left by an
+    exception (an interrupt, or GeneratorExit when the consumer stops): their grasps would
+    otherwise run to the end, and a killed parent would leave them running."""
+    pool = ProcessPoolExecutor(
         workers, mp_context=_context(), initializer=_set_environment,
         initargs=(_our_environment(),),
     )  # fmt: skip
+    try:
+        yield pool
+    except BrokenProcessPool:
+        raise  # the workers are gone already; the caller isolates the suspects
+    except BaseException:
+        _stop_workers(pool)
+        raise
+    finally:
+        pool.shutdown(wait=True, cancel_futures=True)
+
+
+def _stop_workers(pool: ProcessPoolExecutor, grace: float = 5.0) -> None:
+    """Terminate a pool's worker processes now (SIGTERM, then SIGKILL after ``grace``
+    seconds), so that shutting the pool down does not wait for their tasks."""
+    processes = list((getattr(pool, "_processes", None) or {}).values())
+    for process in processes:
+        with contextlib.suppress(OSError, ValueError):
+            process.terminate()
+    for process in processes:
+        with contextlib.suppress(OSError, ValueError, AssertionError):
+            process.join(grace)
+            if process.is_alive():
+                process.kill()
+                process.join(grace)
 
 
 def run_local(
@@ -108,20 +141,18 @@ def _run_pool(tasks, workers, task_fn):
     dies). Returns (tasks in flight when a worker died, tasks not started yet)."""
     queue = list(tasks)
     in_flight: dict[Future, GraspTask] = {}
-    pool = _pool(workers)
     try:
-        while queue or in_flight:
-            while queue and len(in_flight) < workers:
-                task = queue.pop(0)
-                in_flight[pool.submit(task_fn, task)] = task
-            done, _ = wait(in_flight, return_when=FIRST_COMPLETED)
-            for future in done:
-                outcome = future.result()  # BrokenProcessPool if a worker died
-                yield in_flight.pop(future).index, outcome
+        with _pool(workers) as pool:
+            while queue or in_flight:
+                while queue and len(in_flight) < workers:
+                    task = queue.pop(0)
+                    in_flight[pool.submit(task_fn, task)] = task
+                done, _ = wait(in_flight, return_when=FIRST_COMPLETED)
+                for future in done:
+                    outcome = future.result()  # BrokenProcessPool if a worker died
+                    yield in_flight.pop(future).index, outcome
     except BrokenProcessPool:
         return list(in_flight.values()), queue
-    finally:
-        pool.shutdown(wait=True, cancel_futures=True)
     return [], []
 
 

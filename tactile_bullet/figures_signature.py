@@ -11,7 +11,6 @@ from pathlib import Path
 
 import numpy as np
 
-from .errors import UsageError
 from .hand import LONG_FINGERS
 
 
@@ -25,11 +24,13 @@ def _pyplot():
 
 
 def _save(fig, path: str | Path, dpi: int) -> Path:
+    """Write atomically (a failed write leaves the old file, never half a PNG) and close."""
+    from .files import atomic_path
+
     path = Path(path)
     try:
-        fig.savefig(path, dpi=dpi)
-    except OSError as exc:
-        raise UsageError(f"cannot write figure to {path}: {exc.strerror or exc}") from None
+        with atomic_path(path, "figure") as tmp:
+            fig.savefig(tmp, dpi=dpi)
     finally:
         _pyplot().close(fig)
     return path

@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import contextlib
 import os
-from collections.abc import Iterator
+from collections.abc import Iterable, Iterator
 from pathlib import Path
 from typing import Any
 
@@ -65,6 +65,39 @@ def _fsync_dir(folder: Path) -> None:
         pass
     finally:
         os.close(fd)
+
+
+def existing_outputs(
+    folder: str | os.PathLike, names: Iterable[str], what: str, force: bool
+) -> None:
+    """Refuse (unless ``force``) a folder that already holds any of the files a command would
+    write there: an earlier report or figure is kept unless the user asks otherwise."""
+    folder = Path(folder)
+    if force or not folder.is_dir():
+        return
+    found = sorted(n for n in names if (folder / n).exists())
+    if found:
+        more = f" (and {len(found) - 1} more)" if len(found) > 1 else ""
+        raise UsageError(
+            f"{what} {folder} already holds {found[0]}{more} from an earlier run; "
+            "add --force to overwrite, or choose another folder"
+        )
+
+
+def probe_folder(folder: str | os.PathLike, what: str) -> Path:
+    """Create ``folder`` if needed and write (then remove) a small file in it: the one check
+    that holds for every user, root included (``os.access`` says yes to root on a read-only
+    mount), made before long work rather than found after it."""
+    import tempfile
+
+    folder = Path(folder)
+    try:
+        folder.mkdir(parents=True, exist_ok=True)
+        with tempfile.NamedTemporaryFile(dir=folder, prefix=".probe-"):
+            pass
+    except OSError as exc:
+        raise UsageError(f"{what} {folder} is not writable ({exc.strerror or exc})") from None
+    return folder
 
 
 def json_value(value: Any) -> Any:

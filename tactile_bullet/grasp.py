@@ -29,6 +29,7 @@ import numpy as np
 
 from .errors import UsageError
 from .hand import (
+    FCI_JOINTS,
     FINGER_LINKS,
     FINGERS,
     JOINT_NAMES,
@@ -98,7 +99,10 @@ def simulate_grasp(
     values = spec.resolve(params)
     pose = pose or Pose()
     ctl = controller or ControllerSettings()
-    scene = Scene(spec, values, pose, timestep=ctl.timestep, gui=gui, visual=scene_hook is not None)
+    scene = Scene(
+        spec, values, pose, timestep=ctl.timestep, gui=gui, visual=scene_hook is not None,
+        friction=ctl.friction, phalanx_scale=ctl.phalanx_scale,
+    )  # fmt: skip
     try:
         record = _run(scene, spec, values, pose, ctl, int(seed), scene_hook)
     finally:
@@ -108,220 +112,315 @@ def simulate_grasp(
 
 
 def _run(scene, spec, values, pose, ctl, seed, scene_hook) -> GraspRecord:
-    import pybullet as p
+    """Algorithm 1 in its phases: thumb to opposition, the four fingers, settle, record."""
+    run = _GraspRun(scene, spec, ctl)
+    run.thumb_phase()
+    run.finger_phase()
+    run.settle()
+    return run.record(values, pose, seed, scene_hook)
 
-    c, hand = scene.client, scene.hand
-    scene.reset_hand()
-    overlap = scene.penetrations(PENETRATION_TOLERANCE)
-    if overlap:
-        link, depth = min(overlap, key=lambda t: t[1])
-        raise UsageError(
-            f"pose puts the {spec.name} inside the open hand ({link} overlaps it by "
-            f"{-depth * 1000:.1f} mm): move it away from the palm (--offset y < 0) or shrink it"
-        )
 
-    # Arrays below are indexed by record column (JOINT_NAMES order); `movable` are the columns
-    # of joints the simulator has (the wrist is welded, see scene.FIXED_JOINTS) and `ids[col]`
-    # PyBullet's index of a column's joint.
-    n = len(JOINT_NAMES)
-    joints, movable = scene.joints, scene.columns
-    ids = np.full(n, -1)
-    ids[movable] = joints
-    targets = np.zeros(n)
-    forces = np.full(n, ctl.motor_force)
-    # The proximal joint gets the sheet's 2 N m: it must hold while the coupled J0 (the sheet's
-    # tendon at 1 N m) presses the middle and distal phalanges into the object, whose reaction
-    # acts on J3 through a longer lever. At 1 N m the proximal was pushed back 0.4 rad.
-    forces[[JOINT_NAMES.index(f"{f.upper()}J3") for f in LONG_FINGERS]] = 2.0 * ctl.motor_force
-    damping = np.zeros(n)
-    damping[movable] = [c.getJointInfo(hand, j)[6] for j in joints]
-    fingers = [_Finger(f, scene) for f in LONG_FINGERS]
-    upper = scene.upper
-    setmotors = c.setJointMotorControlArray
-    getstates = c.getJointStates
-    torque_mode = ctl.mode == "torque"
-    thres, delta = ctl.thres_t, ctl.delta
+class _GraspRun:
+    """One grasp's controller state, shared by its phases.
 
-    sample_every = max(1, round(1.0 / (ctl.sample_rate * ctl.timestep)))
-    max_steps = int(math.ceil(ctl.max_time / ctl.timestep))
-    times, angle_rows, effort_rows = [], [], []
-    flags: list[str] = []
-    step = 0
+    Arrays are indexed by record column (JOINT_NAMES order); ``movable`` are the columns of
+    joints the simulator has (the wrist is welded, see scene.FIXED_JOINTS) and ``ids[col]``
+    PyBullet's index of a column's joint. Every physics step goes through :meth:`step`, which
+    samples the joint states at ``sample_rate``."""
 
-    def sample():
-        states = getstates(hand, joints)
-        angles, efforts = np.zeros(n), np.zeros(n)
-        angles[movable] = [s[0] for s in states]
-        efforts[movable] = [s[3] for s in states]
-        angle_rows.append(angles)
-        effort_rows.append(efforts)
-        times.append(step * ctl.timestep)
+    def __init__(self, scene: Scene, spec: Shape, ctl: ControllerSettings) -> None:
+        import pybullet as p
 
-    filtered = np.zeros(n)
-    smooth = ctl.timestep / (EFFORT_FILTER_S + ctl.timestep)
+        self.scene, self.ctl, self.position_control = scene, ctl, p.POSITION_CONTROL
+        self.shape = spec.name
+        self.c, self.hand = scene.client, scene.hand
+        scene.reset_hand()
+        overlap = scene.penetrations(PENETRATION_TOLERANCE)
+        if overlap:
+            link, depth = min(overlap, key=lambda t: t[1])
+            raise UsageError(
+                f"pose puts the {spec.name} inside the open hand ({link} overlaps it by "
+                f"{-depth * 1000:.1f} mm): move it away from the palm (--offset y < 0) or shrink it"
+            )
+        n = self.n = len(JOINT_NAMES)
+        self.joints, self.movable = scene.joints, scene.columns
+        self.ids = np.full(n, -1)
+        self.ids[self.movable] = self.joints
+        self.targets = np.zeros(n)
+        self.forces = np.full(n, ctl.motor_force)
+        # The proximal joint gets the sheet's 2 N m: it must hold while the coupled J0 (the
+        # sheet's tendon at 1 N m) presses the middle and distal phalanges into the object,
+        # whose reaction acts on J3 through a longer lever. At 1 N m it was pushed back 0.4 rad.
+        j3s = [JOINT_NAMES.index(f"{f.upper()}J3") for f in LONG_FINGERS]
+        self.forces[j3s] = 2.0 * ctl.motor_force
+        self.damping = np.zeros(n)
+        self.damping[self.movable] = [self.c.getJointInfo(self.hand, j)[6] for j in self.joints]
+        self.fingers = [_Finger(f, scene) for f in LONG_FINGERS]
+        self.torque_mode = ctl.mode == "torque"
+        self.sample_every = max(1, round(1.0 / (ctl.sample_rate * ctl.timestep)))
+        self.max_steps = int(math.ceil(ctl.max_time / ctl.timestep))
+        self.times: list[float] = []
+        self.angle_rows: list[np.ndarray] = []
+        self.effort_rows: list[np.ndarray] = []
+        self.flags: list[str] = []
+        self.steps = 0
+        self.filtered = np.zeros(n)
+        self.smooth = ctl.timestep / (EFFORT_FILTER_S + ctl.timestep)
+        self.send(self.joints, self.movable)
+        self.sample()
 
-    def external(states, idx):
+    # --- plumbing -------------------------------------------------------------------------
+
+    def send(self, joint_ids, cols) -> None:
+        """Position targets and forces of ``cols`` to the motors of ``joint_ids``."""
+        self.c.setJointMotorControlArray(
+            self.hand, joint_ids, self.position_control,
+            targetPositions=self.targets[cols].tolist(), forces=self.forces[cols].tolist(),
+        )  # fmt: skip
+
+    def sample(self) -> None:
+        states = self.c.getJointStates(self.hand, self.joints)
+        angles, efforts = np.zeros(self.n), np.zeros(self.n)
+        angles[self.movable] = [s[0] for s in states]
+        efforts[self.movable] = [s[3] for s in states]
+        self.angle_rows.append(angles)
+        self.effort_rows.append(efforts)
+        self.times.append(self.steps * self.ctl.timestep)
+
+    def step(self) -> bool:
+        """One physics step; True when it took a sample."""
+        self.c.stepSimulation()
+        self.steps += 1
+        if self.steps % self.sample_every == 0:
+            self.sample()
+            return True
+        return False
+
+    def external(self, states, idx):
         """Low-passed |motor torque - the joint's own viscous damping|: the torque the joint
         spends on something other than moving itself, i.e. on the object, as a real hand's
         compensated torque sensing reports it. Without the damping term a joint closing at
         2.4 rad/s reads 0.24 N m; without the filter the jolt of a contact on one phalanx
         trips the joints downstream of it."""
-        raw = np.array([abs(s[3] - damping[i] * s[1]) for s, i in zip(states, idx, strict=True)])
-        filtered[idx] += smooth * (raw - filtered[idx])
-        return filtered[idx].tolist()
+        raw = np.array(
+            [abs(s[3] - self.damping[i] * s[1]) for s, i in zip(states, idx, strict=True)]
+        )
+        self.filtered[idx] += self.smooth * (raw - self.filtered[idx])
+        return self.filtered[idx].tolist()
 
-    setmotors(hand, joints, p.POSITION_CONTROL, targetPositions=targets[movable].tolist(),
-              forces=forces[movable].tolist())  # fmt: skip
-    sample()
+    # --- phase 1: thumb -------------------------------------------------------------------
 
-    # Phase 1: thumb to opposition, stopping on the object if it meets it first.
-    thumb = [JOINT_NAMES.index(nm) for nm in THUMB_OPPOSED]
-    thumb_ids = ids[thumb].tolist()
-    goal = np.array(list(THUMB_OPPOSED.values()))
-    forces[thumb] = (5.0, 3.0, 2.0, 2.0, 1.0)
-    n_thumb = int(math.ceil(np.abs(goal).max() / (THUMB_SPEED_RATIO * delta)))
-    # The object is static, so the free part of the thumb's sweep is skipped: it starts from
-    # the last pose of its path that keeps SWEEP_CLEARANCE from the object (the long fingers'
-    # final angles are unchanged by this, to 0.005 deg). With `preshape` each finger's J3
-    # starts the same way.
-    links = scene.finger_link_ids
-    first = int(math.floor(sweep_clear_fraction(scene, thumb_ids, goal, links["th"]) * n_thumb))
-    targets[thumb] = goal * (first / n_thumb)
-    moved = list(thumb)
-    if ctl.preshape:
-        for f in fingers:
-            j3 = int(ids[f.j3])
-            top = np.array([upper[f.j3]])
-            f.t3 = targets[f.j3] = sweep_clear_fraction(scene, [j3], top, links[f.name]) * top[0]
-            moved.append(f.j3)
-    if first or ctl.preshape:
-        for col in moved:
-            c.resetJointState(hand, int(ids[col]), float(targets[col]), 0.0)
-        setmotors(hand, joints, p.POSITION_CONTROL, targetPositions=targets[movable].tolist(),
-                  forces=forces[movable].tolist())  # fmt: skip
-        angle_rows.clear()
-        effort_rows.clear()
-        times.clear()
-        sample()
-    thumb_link_ids = set(links["th"])
-    for k in range(first + 1, n_thumb + 1):
-        states = getstates(hand, thumb_ids)
-        if torque_mode:
-            stop = max(external(states, thumb)) > thres
-        else:
-            stop = bool(thumb_link_ids & scene.touching_links())
-        if stop:
-            targets[thumb] = [s[0] for s in states]
-        else:
-            targets[thumb] = goal * (k / n_thumb)
-        setmotors(hand, thumb_ids, p.POSITION_CONTROL, targetPositions=targets[thumb].tolist(),
-                  forces=forces[thumb].tolist())  # fmt: skip
-        c.stepSimulation()
-        step += 1
-        if step % sample_every == 0:
-            sample()
-        if stop:
-            break
+    def thumb_phase(self) -> None:
+        """Thumb to opposition, stopping on the object if it meets it first.
 
-    # Phase 2: Algorithm 1 on the four fingers at once.
-    watch = [j for f in fingers for j in (f.j3, f.j2, f.j1)]
-    watch_ids = ids[watch].tolist()
-    while True:
-        if step % ctl.control_every == 0:
-            states = getstates(hand, watch_ids)
-            eff = external(states, watch)
-            links = None if torque_mode else scene.touching_links()
-            active = False
-            for k, f in enumerate(fingers):
-                if f.stage == DONE:
-                    continue
-                active = True
-                e3, e2, e1 = eff[3 * k], eff[3 * k + 1], eff[3 * k + 2]
-                if f.stage == J3:
-                    if torque_mode:
-                        hit = e3 > thres or e2 > thres or e1 > thres
-                    else:
-                        hit = (f.links[0] in links or f.links[1] in links
-                               or bool(f.links[2] & links))  # fmt: skip
-                    if hit or f.t3 >= upper[f.j3]:
-                        f.stage = J0
-                        f.t3 = targets[f.j3] = states[3 * k][0]
-                    else:
-                        f.t3 = min(f.t3 + delta, upper[f.j3])
-                        targets[f.j3] = f.t3
-                    continue
-                # stage J0: tendon travel to J2 while it is free, then to J1
-                if torque_mode:
-                    j2_blocked, j1_blocked = e2 > thres, e1 > thres
-                else:
-                    j2_blocked, j1_blocked = f.links[1] in links, bool(f.links[2] & links)
-                if f.j2_free and (j2_blocked or f.t2 >= upper[f.j2]):
-                    f.j2_free = False
-                    f.t2 = targets[f.j2] = states[3 * k + 1][0]
-                if j1_blocked or (not f.j2_free and f.t1 >= upper[f.j1]):
-                    f.stage = DONE
-                    f.t1 = targets[f.j1] = states[3 * k + 2][0]
-                    continue
-                if f.j2_free:
-                    f.t2 = min(f.t2 + delta, upper[f.j2])
-                    targets[f.j2] = f.t2
-                else:
-                    f.t1 = min(f.t1 + delta, upper[f.j1])
-                    targets[f.j1] = f.t1
-            if not active:
+        The object is static, so the free part of the thumb's sweep is skipped: it starts from
+        the last pose of its path that keeps SWEEP_CLEARANCE from the object (the long fingers'
+        final angles are unchanged by this, to 0.005 deg). With ``preshape`` each finger's J3
+        starts the same way."""
+        ctl, scene, targets, ids = self.ctl, self.scene, self.targets, self.ids
+        thumb = [JOINT_NAMES.index(nm) for nm in THUMB_OPPOSED]
+        thumb_ids = ids[thumb].tolist()
+        goal = np.array(list(THUMB_OPPOSED.values()))
+        self.forces[thumb] = (5.0, 3.0, 2.0, 2.0, 1.0)
+        n_thumb = int(math.ceil(np.abs(goal).max() / (THUMB_SPEED_RATIO * ctl.delta)))
+        links = scene.finger_link_ids
+        first = int(math.floor(sweep_clear_fraction(scene, thumb_ids, goal, links["th"]) * n_thumb))
+        targets[thumb] = goal * (first / n_thumb)
+        moved = list(thumb)
+        if ctl.preshape:
+            for f in self.fingers:
+                j3 = int(ids[f.j3])
+                top = np.array([scene.upper[f.j3]])
+                f.t3 = targets[f.j3] = (
+                    sweep_clear_fraction(scene, [j3], top, links[f.name]) * top[0]
+                )
+                moved.append(f.j3)
+        if first or ctl.preshape:
+            for col in moved:
+                self.c.resetJointState(self.hand, int(ids[col]), float(targets[col]), 0.0)
+            self.send(self.joints, self.movable)
+            self.angle_rows.clear()
+            self.effort_rows.clear()
+            self.times.clear()
+            self.sample()
+        thumb_link_ids = set(links["th"])
+        for k in range(first + 1, n_thumb + 1):
+            states = self.c.getJointStates(self.hand, thumb_ids)
+            if self.torque_mode:
+                stop = max(self.external(states, thumb)) > ctl.thres_t
+            else:
+                stop = bool(thumb_link_ids & scene.touching_links())
+            if stop:
+                targets[thumb] = [s[0] for s in states]
+            else:
+                targets[thumb] = goal * (k / n_thumb)
+            self.send(thumb_ids, thumb)
+            self.step()
+            if stop:
                 break
-            setmotors(hand, watch_ids, p.POSITION_CONTROL,
-                      targetPositions=targets[watch].tolist(),
-                      forces=forces[watch].tolist())  # fmt: skip
-        if step >= max_steps:
-            flags.append("did_not_settle")
-            break
-        c.stepSimulation()
-        step += 1
-        if step % sample_every == 0:
-            sample()
 
-    for _ in range(ctl.settle_steps):
-        c.stepSimulation()
-        step += 1
-        if step % sample_every == 0:
-            sample()
-    if times[-1] != step * ctl.timestep:
-        sample()
+    # --- phase 2: Algorithm 1 on the four fingers -----------------------------------------
 
-    final = np.zeros(n)
-    final[movable] = [s[0] for s in getstates(hand, joints)]
-    if np.any(final < scene.lower - 0.05) or np.any(final > upper + 0.05):
-        flags.append("unstable")
-    contacts = scene.contacts()
-    if scene_hook is not None:
-        scene_hook(scene)
-    link_names = np.array([ct[0] for ct in contacts], dtype="U16")
-    in_contact = tuple(f for f in FINGERS if any(name in FINGER_LINKS[f] for name in link_names))
-    if not any(f in in_contact for f in LONG_FINGERS):
-        flags.append("no_contact")
-    else:
-        missing = [f for f in LONG_FINGERS if f not in in_contact]
-        if missing:
-            flags.append("finger_without_contact")
-    return GraspRecord(
-        shape=spec.name,
-        params=values,
-        pose=pose,
-        controller=ctl,
-        seed=seed,
-        time=np.asarray(times, float),
-        angles=np.asarray(angle_rows, float),
-        efforts=np.asarray(effort_rows, float),
-        final_angles=final,
-        contact_link=link_names,
-        contact_position=np.array([ct[1] for ct in contacts], float).reshape(-1, 3),
-        contact_normal=np.array([ct[2] for ct in contacts], float).reshape(-1, 3),
-        contact_force=np.array([ct[3] for ct in contacts], float),
-        fingers_in_contact=in_contact,
-        flags=tuple(flags),
-        steps=step,
+    def finger_phase(self) -> None:
+        """Algorithm 1 on the four fingers at once until every one is done (or max_time).
+
+        With ``early_stop`` the dynamic non-contact detector (``temporal.DynamicDetector``)
+        watches each sample, and a finger it finds out of contact stops closing instead of
+        running on to its joint limits. Fingers it finds settled are left to Algorithm 1: a
+        stall of 0.1 s is often a pause in the adaptation, and stopping there moved final
+        angles by 18 deg (median over 32 thesis-preset grasps) for 5% fewer steps."""
+        ctl = self.ctl
+        watch = [j for f in self.fingers for j in (f.j3, f.j2, f.j1)]
+        watch_ids = self.ids[watch].tolist()
+        detector = _early_stop_detector(self) if ctl.early_stop else None
+        while True:
+            if self.steps % ctl.control_every == 0:
+                states = self.c.getJointStates(self.hand, watch_ids)
+                eff = self.external(states, watch)
+                links = None if self.torque_mode else self.scene.touching_links()
+                active = False
+                for k, f in enumerate(self.fingers):
+                    if f.stage == DONE:
+                        continue
+                    active = True
+                    if detector is not None and detector.non_contact[k]:
+                        self.stop_finger(f, states[3 * k : 3 * k + 3])
+                        continue
+                    self.finger_tick(f, eff[3 * k : 3 * k + 3], states[3 * k : 3 * k + 3], links)
+                if not active:
+                    break
+                self.send(watch_ids, watch)
+            if self.steps >= self.max_steps:
+                self.flags.append("did_not_settle")
+                break
+            if self.step() and detector is not None:
+                _feed(detector, self)
+
+    def finger_tick(self, f: _Finger, eff, states, links) -> None:
+        """One control tick of Algorithm 1 for one finger: stage J3, then the tendon rule."""
+        thres, delta, upper = self.ctl.thres_t, self.ctl.delta, self.scene.upper
+        e3, e2, e1 = eff
+        if f.stage == J3:
+            if self.torque_mode:
+                hit = e3 > thres or e2 > thres or e1 > thres
+            else:
+                hit = f.links[0] in links or f.links[1] in links or bool(f.links[2] & links)
+            if hit or f.t3 >= upper[f.j3]:
+                f.stage = J0
+                f.t3 = self.targets[f.j3] = states[0][0]
+            else:
+                f.t3 = min(f.t3 + delta, upper[f.j3])
+                self.targets[f.j3] = f.t3
+            return
+        self.tendon_tick(f, e2, e1, states, links)
+
+    def tendon_tick(self, f: _Finger, e2: float, e1: float, states, links) -> None:
+        """Stage J0: the tendon's travel goes to J2 while it is free, then to J1; the finger is
+        done when J1 is blocked (or at its limit once J2 is)."""
+        thres, delta, upper, targets = (
+            self.ctl.thres_t,
+            self.ctl.delta,
+            self.scene.upper,
+            self.targets,
+        )
+        if self.torque_mode:
+            j2_blocked, j1_blocked = e2 > thres, e1 > thres
+        else:
+            j2_blocked, j1_blocked = f.links[1] in links, bool(f.links[2] & links)
+        if f.j2_free and (j2_blocked or f.t2 >= upper[f.j2]):
+            f.j2_free = False
+            f.t2 = targets[f.j2] = states[1][0]
+        if j1_blocked or (not f.j2_free and f.t1 >= upper[f.j1]):
+            f.stage = DONE
+            f.t1 = targets[f.j1] = states[2][0]
+            return
+        if f.j2_free:
+            f.t2 = min(f.t2 + delta, upper[f.j2])
+            targets[f.j2] = f.t2
+        else:
+            f.t1 = min(f.t1 + delta, upper[f.j1])
+            targets[f.j1] = f.t1
+
+    def stop_finger(self, f: _Finger, states) -> None:
+        """Early stop: the finger holds the angles it has now and is done."""
+        f.stage = DONE
+        f.t3 = self.targets[f.j3] = states[0][0]
+        f.t2 = self.targets[f.j2] = states[1][0]
+        f.t1 = self.targets[f.j1] = states[2][0]
+
+    # --- settle and record ----------------------------------------------------------------
+
+    def settle(self) -> None:
+        """Hold the targets ``settle_steps`` steps; make sure the last state is sampled."""
+        for _ in range(self.ctl.settle_steps):
+            self.step()
+        if self.times[-1] != self.steps * self.ctl.timestep:
+            self.sample()
+
+    def record(self, values, pose, seed, scene_hook) -> GraspRecord:
+        """The final state, contacts and flags as a GraspRecord."""
+        scene = self.scene
+        final = np.zeros(self.n)
+        final[self.movable] = [s[0] for s in self.c.getJointStates(self.hand, self.joints)]
+        if np.any(final < scene.lower - 0.05) or np.any(final > scene.upper + 0.05):
+            self.flags.append("unstable")
+        contacts = scene.contacts()
+        if scene_hook is not None:
+            scene_hook(scene)
+        link_names = np.array([ct[0] for ct in contacts], dtype="U16")
+        in_contact = tuple(f for f in FINGERS if any(nm in FINGER_LINKS[f] for nm in link_names))
+        if not any(f in in_contact for f in LONG_FINGERS):
+            self.flags.append("no_contact")
+        elif any(f not in in_contact for f in LONG_FINGERS):
+            self.flags.append("finger_without_contact")
+        return GraspRecord(
+            shape=self.shape,
+            params=values,
+            pose=pose,
+            controller=self.ctl,
+            seed=seed,
+            time=np.asarray(self.times, float),
+            angles=np.asarray(self.angle_rows, float),
+            efforts=np.asarray(self.effort_rows, float),
+            final_angles=final,
+            contact_link=link_names,
+            contact_position=np.array([ct[1] for ct in contacts], float).reshape(-1, 3),
+            contact_normal=np.array([ct[2] for ct in contacts], float).reshape(-1, 3),
+            contact_force=np.array([ct[3] for ct in contacts], float),
+            fingers_in_contact=in_contact,
+            flags=tuple(self.flags),
+            steps=self.steps,
+        )
+
+
+def _early_stop_detector(run: _GraspRun):
+    """The online dynamic detector, primed with the samples taken before the finger phase."""
+    from .temporal import GBIN_THRESHOLD, NOMINAL_SPEED, RUN_S, SETTLE_S, DynamicDetector
+
+    # The detector's figures are for the default closing speed; a slower controller (smaller
+    # delta, control_every > 1) rises more slowly and for longer, so they scale with it.
+    ctl = run.ctl
+    slow = NOMINAL_SPEED / (ctl.delta / (ctl.timestep * ctl.control_every))
+    detector = DynamicDetector(
+        rate=ctl.sample_rate,
+        threshold=GBIN_THRESHOLD / slow,
+        run_s=RUN_S * slow,
+        settle_s=SETTLE_S * slow,
     )
+    for t, angles in zip(run.times, run.angle_rows, strict=True):
+        detector.push_angles(angles[_FCI_COLUMNS], t)
+    return detector
+
+
+def _feed(detector, run: _GraspRun) -> None:
+    """The latest sample into the detector."""
+    detector.push_angles(run.angle_rows[-1][_FCI_COLUMNS], run.times[-1])
+
+
+_FCI_COLUMNS = np.array(
+    [[JOINT_NAMES.index(FCI_JOINTS[f][row]) for f in LONG_FINGERS] for row in range(3)]
+)
+"""Record columns of the (3, 4) FCI angles: rows J3, J2, J1; columns ff, mf, rf, lf."""
 
 
 SWEEP_CLEARANCE = 0.005

@@ -1,7 +1,7 @@
 """The simulated Shadow hand as data: joint names, fingers, coupling and the geometry the
 signature's theory needs (finger positions along O-O', phalanx lengths).
 
-Numbers come from ``shared/reference/shadow-hand-kinematics.md``; the URDF in ``urdf/`` is
+Numbers come from ``docs/hand.md``; the URDF in ``urdf/`` is
 generated from the same sheet by ``tools/make_urdf.py``.
 """
 

@@ -34,6 +34,8 @@ from sklearn.utils import check_random_state
 from sklearn.utils.multiclass import check_classification_targets
 from sklearn.utils.validation import check_is_fitted, validate_data
 
+from .torch_support import check_device_name, check_memory, import_torch, torch_device
+
 __all__ = ["NeuralForestClassifier", "per_class_accuracy"]
 
 _PROBA_FLOOR = 1e-7
@@ -47,14 +49,16 @@ thread, a 720 M one broke even. Larger problems keep torch's own setting.
 """
 
 _PREDICT_CHUNK = 4096
-"""Rows routed at once in predict: bounds the (rows x trees x features) temporary."""
+"""Most rows routed at once in predict; fewer when a row's temporaries are large."""
+
+_PREDICT_CHUNK_BYTES = 64 * 1024**2
+"""Budget for one predict chunk's routing temporaries (about four float64 arrays of rows x
+trees x nodes): a deep or wide forest predicts in smaller chunks instead of taking gigabytes."""
 
 
 def _torch() -> Any:
     """Import torch on first use: it costs about a second, which the CLI should not pay."""
-    import torch
-
-    return torch
+    return import_torch()
 
 
 @contextmanager
@@ -138,10 +142,16 @@ class NeuralForestClassifier(ClassifierMixin, BaseEstimator):
     memory_size : int
         Replay memory kept for ``partial_fit`` (samples in all, balanced over classes).
     device : str
-        Torch device for training ("cpu", "cuda"); prediction runs in numpy.
+        Torch device for training ("cpu", "cuda"); prediction runs in numpy. A device this
+        torch build or machine lacks is refused (``UsageError``) when ``fit`` starts.
     random_state : int, RandomState instance or None
         Seeds the feature subsets, initial weights and mini-batches (0 by default, like the
         other built-in classifiers, so the same data trains the same model; None draws one).
+
+    Limits: ``fit`` and ``partial_fit`` compute :meth:`memory_estimate` (parameters, Adam
+    state, a training step's temporaries; it doubles with each level of ``depth``) and refuse
+    a forest above ``torch_support.MEMORY_LIMIT_BYTES`` (2 GiB) before allocating anything;
+    ``predict_proba`` routes rows in chunks of at most 64 MiB of temporaries.
 
     Attributes
     ----------
@@ -202,12 +212,14 @@ class NeuralForestClassifier(ClassifierMixin, BaseEstimator):
                 delattr(self, name)
         X, y = validate_data(self, X, y, dtype=np.float64)
         check_classification_targets(y)
+        classes = np.unique(y)
+        self._check_size(X.shape[1], len(classes))
+        torch_device(_torch(), self.device, "neural-forest")  # refused before any work
         start = time.perf_counter()
         seed = check_random_state(self.random_state).randint(np.iinfo(np.int32).max)
         self._seed = int(seed)
         self._n_calls = 0
         self._start_statistics(X)
-        classes = np.unique(y)
         rng = np.random.default_rng([self._seed, 0])
         self._init_members(classes, rng)
         if len(classes) > 1:  # one class: every forest would learn "always"; predict it anyway
@@ -240,6 +252,9 @@ class NeuralForestClassifier(ClassifierMixin, BaseEstimator):
         if classes is not None and not np.all(np.isin(present, announced)):
             missing = np.setdiff1d(present, announced)
             raise ValueError(f"y holds labels not in `classes`: {missing.tolist()}")
+        known = announced if first else np.union1d(self.classes_, announced)
+        self._check_size(self.n_features_in_, len(known))
+        torch_device(_torch(), self.device, "neural-forest")
         if first:
             seed = check_random_state(self.random_state).randint(np.iinfo(np.int32).max)
             self._seed = int(seed)
@@ -285,10 +300,12 @@ class NeuralForestClassifier(ClassifierMixin, BaseEstimator):
         b = self.split_biases_.reshape(k * t, -1)
         leaves = 1.0 / (1.0 + np.exp(-self.leaf_logits_.reshape(k * t, -1)))
         out = np.empty((X.shape[0], k))
-        for lo in range(0, X.shape[0], _PREDICT_CHUNK):
-            mu = _routing_numpy(xs[lo : lo + _PREDICT_CHUNK], idx, w, b)
+        row_bytes = 8.0 * k * t * (4 * leaves.shape[-1] + idx.shape[-1])
+        chunk = int(max(1, min(_PREDICT_CHUNK, _PREDICT_CHUNK_BYTES // row_bytes)))
+        for lo in range(0, X.shape[0], chunk):
+            mu = _routing_numpy(xs[lo : lo + chunk], idx, w, b)
             q = (mu * leaves).sum(-1).reshape(mu.shape[0], k, t).mean(-1)
-            out[lo : lo + _PREDICT_CHUNK] = np.maximum(q, _PROBA_FLOOR)
+            out[lo : lo + chunk] = np.maximum(q, _PROBA_FLOOR)
         return out / out.sum(axis=1, keepdims=True)
 
     def predict(self, X: Any) -> np.ndarray:
@@ -311,6 +328,31 @@ class NeuralForestClassifier(ClassifierMixin, BaseEstimator):
             raise ValueError(f"feature_fraction must be in (0, 1], got {self.feature_fraction!r}")
         if not float(self.learning_rate) > 0.0:
             raise ValueError(f"learning_rate must be positive, got {self.learning_rate!r}")
+        check_device_name(self.device, "neural-forest")
+
+    def memory_estimate(self, n_features: int, n_classes: int) -> float:
+        """Bytes the forest would need: its parameters (float64 here; float32 in torch with a
+        gradient and Adam's two moments), one training step's routing temporaries kept for
+        back-propagation (about six (batch, trees, 2**depth) arrays), and one row of predict
+        temporaries. Computed in floats, so depth=40 gives petabytes instead of an overflow."""
+        trees = float(n_classes) * self.n_trees
+        leaves = 2.0 ** int(self.depth)
+        n_subset = max(1, int(round(float(self.feature_fraction) * n_features)))
+        per_tree = n_subset * (leaves - 1) + (leaves - 1) + leaves
+        parameters = trees * per_tree * (8 + 4 * 4)
+        step = float(self.batch_size) * trees * (6 * leaves + n_subset) * 4
+        predict_row = trees * (4 * leaves + n_subset) * 8
+        return parameters + step + predict_row
+
+    def _check_size(self, n_features: int, n_classes: int) -> None:
+        """Refuse (UsageError) a forest beyond ``torch_support.MEMORY_LIMIT_BYTES`` before any
+        allocation."""
+        check_memory(
+            self.memory_estimate(n_features, n_classes),
+            f"neural-forest depth={self.depth}, n_trees={self.n_trees}",
+            f"{n_classes} classes x {self.n_trees} trees x 2**{self.depth} leaves, "
+            f"{n_features} features",
+        )
 
     def _start_statistics(self, X: np.ndarray) -> None:
         self.n_samples_seen_ = X.shape[0]
@@ -387,7 +429,7 @@ class NeuralForestClassifier(ClassifierMixin, BaseEstimator):
         if len(members) == 0 or n_steps == 0:
             return
         torch = _torch()
-        device = torch.device(self.device)
+        device = torch_device(torch, self.device, "neural-forest")
         counts = np.bincount(y_idx, minlength=len(self.classes_)).astype(np.float64)
         weights = 1.0 / counts[y_idx]
         batches = rng.choice(len(y_idx), size=(n_steps, self.batch_size), p=weights / weights.sum())

@@ -38,6 +38,7 @@ from .errors import TactileBulletError, UsageError
 DEFAULT_PLUGINS: tuple[str, ...] = (
     "tactile_bullet.shapes_plugin",
     "tactile_bullet.descriptors",
+    "tactile_bullet.robust",
     "tactile_bullet.classifiers.builtin",
 )
 """Built-in plugin modules, registered exactly like installed ones."""
@@ -209,11 +210,13 @@ def _load_entry_points(registry: _Registry) -> None:
         return
     allow = None if allow_text is None else _name_set(allow_text)
     block = _name_set(os.environ.get(BLOCK_ENV, ""))
+    installed: set[str] = set()
     for ep in _entry_points():
         dist = getattr(ep, "dist", None)
         dist_name = dist.metadata["Name"] if dist is not None else None
         version = dist.version if dist is not None else None
         names = {_normalise(ep.name)} | ({_normalise(dist_name)} if dist_name else set())
+        installed |= names
         if (allow is not None and not names & allow) or names & block:
             continue
         name = dist_name or ep.name
@@ -228,6 +231,13 @@ def _load_entry_points(registry: _Registry) -> None:
         error = registry.add(plugin, name, version, builtin=False)
         if error:
             _warn(name, error)
+    for env, wanted in ((ALLOW_ENV, allow or set()), (BLOCK_ENV, block)):
+        for missing in sorted(wanted - installed):
+            print(
+                f"tactile-bullet: warning: {env} names {missing!r}, which is not an installed "
+                f"plugin (installed: {', '.join(sorted(installed)) or 'none'})",
+                file=sys.stderr,
+            )
 
 
 def _warn(name: str, error: str | None) -> None:

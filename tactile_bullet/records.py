@@ -20,6 +20,19 @@ from .errors import UsageError
 from .hand import FCI_JOINTS, FINGERS, JOINT_NAMES, LONG_FINGERS
 
 RECORD_FORMAT = 1
+SOURCES: tuple[str, ...] = ("simulated", "recorded")
+"""Where a record came from: the simulator, or a real hand's recording (recordings.py)."""
+
+MAX_OFFSET_M = 1.0
+"""Largest object offset (m) along any palm axis: a metre is far beyond the hand's reach (an
+object there touches nothing), and larger numbers only reach PyBullet as float overflow."""
+MAX_ROTATION_DEG = 90.0
+"""Largest object rotation about the palm normal (deg), either way: the CLI's bound and every
+sweep's (a quarter turn is the thesis' largest, the 90-deg classes of chapter 4)."""
+MAX_TIME_S = 60.0
+"""Longest simulated grasp (s): the enclosure grasp ends in 1-3 s; a longer limit only grows
+the time series a record holds."""
+MAX_SETTLE_STEPS = 10_000
 
 
 @dataclass(frozen=True)
@@ -38,8 +51,17 @@ class Pose:
         off = tuple(float(v) for v in self.offset)
         if len(off) != 3 or not all(math.isfinite(v) for v in off):
             raise UsageError(f"offset must be three finite numbers in metres, got {self.offset}")
+        if any(abs(v) > MAX_OFFSET_M for v in off):
+            raise UsageError(
+                f"offset {off} m is out of range: each coordinate within +-{MAX_OFFSET_M:g} m"
+            )
         if not math.isfinite(float(self.rotation)):
             raise UsageError(f"rotation must be finite, got {self.rotation}")
+        if abs(math.degrees(float(self.rotation))) > MAX_ROTATION_DEG + 1e-9:
+            raise UsageError(
+                f"rotation {math.degrees(float(self.rotation)):g} deg is out of range "
+                f"[-{MAX_ROTATION_DEG:g}, {MAX_ROTATION_DEG:g}] degrees"
+            )
         object.__setattr__(self, "offset", off)
         object.__setattr__(self, "rotation", float(self.rotation))
 
@@ -71,20 +93,71 @@ class ControllerSettings:
     ~2.5 deg in torque mode, but that shift costs the signature accuracy on cylinder vs
     hyperboloid (``tactile-bullet demo``: 96.7% -> 85.0%), so it is off by default. The thumb
     always skips its free sweep, which leaves the long fingers' angles unchanged."""
+    early_stop: bool = False
+    """Stop closing a finger as soon as the dynamic non-contact detector (``temporal.py``,
+    thesis ch. 3) finds it out of contact, instead of running it to its joint limits: fewer
+    physics steps where a finger misses the object, identical grasps where none does. Off by
+    default (records saved before it existed load with it off)."""
+    friction: float = 0.8
+    """Lateral (Coulomb) friction coefficient of the hand's links and the object. A physics
+    knob, not Algorithm 1's: the benchmark's simulator-shift protocol varies it."""
+    phalanx_scale: float = 1.0
+    """Length factor of every finger's and the thumb's phalanges (joint spacing and link
+    geometry): 1.03 is another hand of the same model with 3% longer fingers."""
 
     def __post_init__(self) -> None:
         if self.mode not in ("torque", "contact"):
             raise UsageError(f"mode must be 'torque' or 'contact', got {self.mode!r}")
-        for name in ("delta", "thres_t", "max_time", "timestep", "sample_rate", "motor_force"):
+        for name in ("delta", "thres_t", "max_time", "timestep", "sample_rate", "motor_force",
+                     "friction"):  # fmt: skip
             value = getattr(self, name)
             if not (isinstance(value, int | float) and math.isfinite(value) and value > 0):
                 raise UsageError(f"controller {name} must be a positive number, got {value!r}")
         if self.delta > 0.2:
             raise UsageError(f"controller delta {self.delta} rad per tick is too large (max 0.2)")
-        if not isinstance(self.preshape, bool | np.bool_):
-            raise UsageError(f"controller preshape must be true or false, got {self.preshape!r}")
+        for flag in ("preshape", "early_stop"):
+            if not isinstance(getattr(self, flag), bool | np.bool_):
+                raise UsageError(
+                    f"controller {flag} must be true or false, got {getattr(self, flag)!r}"
+                )
+        for name in ("control_every", "settle_steps"):
+            value = getattr(self, name)
+            if not isinstance(value, int | np.integer) or isinstance(value, bool):
+                raise UsageError(f"controller {name} must be an integer, got {value!r}")
         if int(self.control_every) < 1 or int(self.settle_steps) < 0:
             raise UsageError("control_every must be >= 1 and settle_steps >= 0")
+        if self.max_time > MAX_TIME_S or self.settle_steps > MAX_SETTLE_STEPS:
+            raise UsageError(
+                f"controller max_time must be at most {MAX_TIME_S:g} s and settle_steps at "
+                f"most {MAX_SETTLE_STEPS}, got {self.max_time!r} and {self.settle_steps!r}"
+            )
+        if self.timestep > 0.01 or self.sample_rate > 1.0 / self.timestep:
+            raise UsageError(
+                f"controller timestep must be at most 0.01 s and sample_rate at most one "
+                f"sample per step, got {self.timestep!r} s and {self.sample_rate!r} Hz"
+            )
+        scale = self.phalanx_scale
+        if isinstance(scale, bool) or not isinstance(scale, int | float) or not 0.8 <= scale <= 1.2:
+            raise UsageError(f"controller phalanx_scale must be from 0.8 to 1.2, got {scale!r}")
+
+
+PHYSICS_DEFAULTS: dict[str, float | bool] = {
+    "friction": 0.8,
+    "phalanx_scale": 1.0,
+    "early_stop": False,
+}
+"""Fields of ControllerSettings added after records were first written (physics knobs and
+the early grasp end): left out of the saved form while at these values, so older records,
+dataset manifests (compared on ``--resume``) and their checksums stay byte-identical."""
+
+
+def controller_dict(controller: ControllerSettings) -> dict:
+    """The settings as saved in records and manifests (see :data:`PHYSICS_DEFAULTS`)."""
+    out = asdict(controller)
+    for key, default in PHYSICS_DEFAULTS.items():
+        if out[key] == default:
+            del out[key]
+    return out
 
 
 @dataclass(frozen=True, eq=False)
@@ -95,6 +168,10 @@ class GraspRecord:
     Contacts are those present at the end of the grasp, in the palm frame: position on the
     object, the object's outward normal there, and the normal force (N). ``contact_link`` holds
     the hand link name of each contact. Units: s, rad, N m, m, N.
+
+    ``source`` is "simulated" or "recorded" (a real hand's joint states, read by
+    ``recordings.py``: no contacts, pose and controller unknown, ``shape`` the user's label or
+    "unknown").
     """
 
     shape: str
@@ -114,9 +191,16 @@ class GraspRecord:
     flags: tuple[str, ...] = ()
     steps: int = 0
     joint_names: tuple[str, ...] = field(default=JOINT_NAMES)
+    source: str = "simulated"
     mesh: Mapping[str, Any] | None = None
     """For a grasp on a mesh file: which one (``meshes.MeshSource.to_dict``: path, sha256,
     name, unit, scale, axis, budget), enough to find it again in the cache and re-simulate."""
+
+    def __post_init__(self) -> None:
+        if self.source not in SOURCES:
+            raise UsageError(
+                f"record source must be one of {', '.join(SOURCES)}, got {self.source!r}"
+            )
 
     @property
     def sim_time_s(self) -> float:
@@ -152,18 +236,25 @@ class GraspRecord:
         return np.isin(self.contact_link, FINGER_LINKS[finger])
 
     def metadata(self) -> dict:
-        return {
+        """JSON-ready metadata; ``source`` appears only for recorded grasps, so simulated
+        records (and datasets) stay byte-identical to those written before it existed."""
+        meta = {
             "format": RECORD_FORMAT,
             "shape": self.shape,
             "params": dict(self.params),
             "pose": asdict(self.pose),
-            "controller": asdict(self.controller),
+            "controller": controller_dict(self.controller),
             "seed": int(self.seed),
             "fingers_in_contact": list(self.fingers_in_contact),
             "flags": list(self.flags),
             "steps": int(self.steps),
             "joint_names": list(self.joint_names),
-        } | ({"mesh": dict(self.mesh)} if self.mesh else {})
+        }
+        if self.source != "simulated":
+            meta["source"] = self.source
+        if self.mesh:
+            meta["mesh"] = dict(self.mesh)
+        return meta
 
     def arrays(self) -> dict[str, np.ndarray]:
         return {
@@ -210,6 +301,7 @@ def record_from_parts(meta: Mapping, arrays: Mapping[str, np.ndarray]) -> GraspR
             flags=tuple(meta["flags"]),
             steps=int(meta["steps"]),
             joint_names=tuple(meta["joint_names"]),
+            source=str(meta.get("source", "simulated")),
             mesh=dict(meta["mesh"]) if meta.get("mesh") else None,
         )
     except UsageError:
@@ -230,6 +322,9 @@ def save_record(record: GraspRecord, path: str | Path) -> Path:
 
 def load_record(path: str | Path) -> GraspRecord:
     """Read a record written by :func:`save_record` (never unpickles)."""
+    import zipfile
+    import zlib
+
     path = Path(path)
     try:
         with np.load(path, allow_pickle=False) as data:
@@ -237,6 +332,11 @@ def load_record(path: str | Path) -> GraspRecord:
             arrays = {k: data[k] for k in data.files if k != "meta"}
     except FileNotFoundError:
         raise UsageError(f"record file {path} does not exist") from None
-    except (OSError, ValueError, KeyError) as exc:
-        raise UsageError(f"{path} is not a readable grasp record ({exc})") from None
-    return record_from_parts(meta, arrays)
+    except (OSError, ValueError, KeyError, EOFError, zipfile.BadZipFile, zlib.error) as exc:
+        # a truncated or damaged file (BadZipFile, EOFError, zlib.error) is bad input too
+        why = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
+        raise UsageError(f"{path} is not a readable grasp record ({why})") from None
+    try:
+        return record_from_parts(meta, arrays)
+    except UsageError as exc:
+        raise UsageError(f"{path}: {exc}") from None

@@ -20,7 +20,7 @@ from typing import Any
 import numpy as np
 
 from .errors import UsageError
-from .files import atomic_path, json_value, write_bytes_atomic
+from .files import atomic_path, json_value, probe_folder, write_bytes_atomic
 
 SIZE_BINS: tuple[str, ...] = ("small", "medium", "large")
 """Thirds of the valid size range (see :func:`size_fraction`)."""
@@ -168,7 +168,7 @@ def evaluation_report(
     classes: Sequence[str],
     records: Sequence | None = None,
 ) -> dict[str, Any]:
-    """The ``evaluate --json`` document (DESIGN section 5) plus accuracy by size and position.
+    """The ``evaluate --json`` document (docs/json.md) plus accuracy by size and position.
 
     ``records`` (aligned with ``y_true``) supply each object's sizes and offset for the bins;
     without them the bins are left out."""
@@ -223,6 +223,10 @@ def summary_text(report: Mapping[str, Any]) -> str:
         confusion_text(report["confusion_matrix"], report["classes"]),
         "",
     ]
+    if report.get("no_contact"):
+        lines.append(
+            f"{report['no_contact']} grasps touched too little to carry a shape (scored anyway)"
+        )
     if report.get("unknown_classes"):
         unknown = ", ".join(report["unknown_classes"])
         lines.append(f"shapes the model was not trained on (always counted wrong): {unknown}")
@@ -246,9 +250,7 @@ def report_dir(path: str | os.PathLike) -> Path:
         path.mkdir(parents=True, exist_ok=True)
     except OSError as exc:
         raise UsageError(f"cannot create report folder {path}: {exc.strerror or exc}") from None
-    if not os.access(path, os.W_OK):
-        raise UsageError(f"report folder {path} is not writable")
-    return path
+    return probe_folder(path, "report folder")
 
 
 def write_text_atomic(path: str | os.PathLike, text: str) -> Path:
@@ -323,6 +325,17 @@ def plot_bins(
     ax.set_ylabel("accuracy (%)")
     ax.set_xlabel(xlabel)
     return _save(fig, Path(path))
+
+
+REPORT_FILES: tuple[str, ...] = (
+    "report.json",
+    "confusion_matrix.png",
+    "accuracy_by_size.png",
+    "accuracy_by_position.png",
+    "accuracy_by_rotation.png",
+)
+"""Every file :func:`write_evaluation_report` may write: checked before work so an earlier
+report is never replaced unasked."""
 
 
 def write_evaluation_report(report: Mapping[str, Any], out: str | os.PathLike) -> list[Path]:

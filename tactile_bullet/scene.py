@@ -12,6 +12,7 @@ import contextlib
 import functools
 import hashlib
 import os
+import re
 import sys
 import tempfile
 from collections.abc import Iterator, Mapping
@@ -41,6 +42,14 @@ across the fingers, and the open thumb (its 12 mm capsules lie 8.6 mm in front o
 plane from its base at x = 34 mm to its tip near x = 103 mm)."""
 
 FRICTION = 0.8
+"""Default lateral friction of hand links and object (``ControllerSettings.friction``)."""
+
+PHALANX_LINKS = tuple(
+    f"{finger}{part}"
+    for finger in ("ff", "mf", "rf", "lf", "th")
+    for part in ("proximal", "middle", "distal")
+)
+"""Links whose length ``phalanx_scale`` changes (with the joints they carry)."""
 
 FIXED_JOINTS = ("WRJ2", "WRJ1")
 """Joints welded for grasping: the arm holds the palm still (the thesis' hand was mounted and
@@ -105,24 +114,54 @@ def import_pybullet():
     return pybullet
 
 
-def grasping_urdf() -> Path:
-    """The hand's URDF with FIXED_JOINTS welded, cached next to the system's temp files
-    (written once per content, atomically, so parallel workers can share it)."""
-    path = _welded_urdf(urdf_path())
+def grasping_urdf(phalanx_scale: float = 1.0) -> Path:
+    """The hand's URDF with FIXED_JOINTS welded (and its phalanges scaled by
+    ``phalanx_scale``), cached next to the system's temp files (written once per content,
+    atomically, so parallel workers can share it)."""
+    path = _welded_urdf(urdf_path(), float(phalanx_scale))
     if not path.exists():  # a temp cleaner removed it during a long run: write it again
         _welded_urdf.cache_clear()
-        path = _welded_urdf(urdf_path())
+        path = _welded_urdf(urdf_path(), float(phalanx_scale))
     return path
 
 
+def scale_phalanges(text: str, scale: float) -> str:
+    """URDF text with every phalanx ``scale`` times longer: the z of the origins inside the
+    phalanx links, their capsules' lengths, and the origins of the joints they carry (the next
+    phalanx, the tip frame). Radii, knuckles, palm and masses stay: another hand of the same
+    model, whose fingers a manufacturing or calibration tolerance made a little longer."""
+
+    def scaled(match: re.Match, group: int) -> str:
+        value = float(match.group(group)) * scale
+        return match.group(0).replace(match.group(group), f"{value:.6g}", 1)
+
+    z_origin = re.compile(r'xyz="0 0 ([-0-9.e]+)"')
+    length = re.compile(r'length="([-0-9.e]+)"')
+    for link in PHALANX_LINKS:
+        block = re.compile(rf'<link name="{link}">.*?</link>', re.S)
+        body = block.search(text)
+        if body is None:
+            raise RuntimeError(f"hand URDF lacks link {link}")
+        new = z_origin.sub(lambda m: scaled(m, 1), body.group(0))
+        new = length.sub(lambda m: scaled(m, 1), new)
+        text = text[: body.start()] + new + text[body.end() :]
+        carried = re.compile(
+            rf'<joint name="[^"]+" type="\w+">\s*<parent link="{link}"/>.*?</joint>', re.S
+        )
+        text = carried.sub(lambda m: z_origin.sub(lambda z: scaled(z, 1), m.group(0)), text)
+    return text
+
+
 @functools.lru_cache(maxsize=4)
-def _welded_urdf(source: Path) -> Path:
+def _welded_urdf(source: Path, phalanx_scale: float = 1.0) -> Path:
     """Read, weld and hash once per process and source, not once per grasp."""
     text = source.read_text()
     for name in FIXED_JOINTS:
         text = text.replace(
             f'<joint name="{name}" type="revolute">', f'<joint name="{name}" type="fixed">'
         )
+    if phalanx_scale != 1.0:
+        text = scale_phalanges(text, phalanx_scale)
     digest = hashlib.sha256(text.encode()).hexdigest()[:16]
     path = Path(tempfile.gettempdir()) / f"tactile-bullet-hand-{digest}.urdf"
     if not path.exists():
@@ -177,7 +216,10 @@ class Scene:
         timestep: float = 1.0 / 240.0,
         gui: bool = False,
         visual: bool = False,
+        friction: float = FRICTION,
+        phalanx_scale: float = 1.0,
     ) -> None:
+        self.friction, self.phalanx_scale = float(friction), float(phalanx_scale)
         p = import_pybullet()
         from pybullet_utils import bullet_client
 
@@ -210,7 +252,7 @@ class Scene:
 
     def _load_hand(self, p) -> int:
         return self.client.loadURDF(
-            str(grasping_urdf()),
+            str(grasping_urdf(self.phalanx_scale)),
             basePosition=(-FOREARM_TO_PALM).tolist(),
             useFixedBase=True,
             # Merging the fixed tip frames into the distal links matters: a 0.1 g tip link
@@ -235,7 +277,7 @@ class Scene:
             c.changeDynamics(
                 self.hand,
                 j,
-                lateralFriction=FRICTION,
+                lateralFriction=self.friction,
                 localInertiaDiagonal=[max(v, ARMATURE_INERTIA) for v in inertia],
             )
         missing = [n for n in JOINT_NAMES if n not in self.joint_index and n not in FIXED_JOINTS]
@@ -273,7 +315,7 @@ class Scene:
                 basePosition=self.placement.position,
                 baseOrientation=self.placement.orientation,
             )
-            c.changeDynamics(body, -1, lateralFriction=FRICTION)
+            c.changeDynamics(body, -1, lateralFriction=self.friction)
             bodies.append(body)
         if visual:
             mesh = self.shape.mesh(**self.params)

@@ -34,6 +34,13 @@ from sklearn.model_selection import train_test_split
 from .errors import UsageError
 from .neural_forest import NeuralForestClassifier, per_class_accuracy
 
+FIGURES: tuple[str, ...] = (
+    "accuracy_vs_objects.png",
+    "updates_per_tree.png",
+    "disturbance_matrix.png",
+)
+"""The files :func:`plot` writes into ``--out``."""
+
 
 def load_data(args: argparse.Namespace) -> tuple[np.ndarray, np.ndarray, list[str]]:
     """(X, y, class names) with y in 0..n_classes-1. The one place to wire grasp data in."""
@@ -55,11 +62,17 @@ def load_data(args: argparse.Namespace) -> tuple[np.ndarray, np.ndarray, list[st
             "--synthetic"
         )
     from .cli.common import estimator_params
-    from .dataset import load_dataset
+    from .dataset import read_records
     from .plugins import get_descriptor
 
     params = estimator_params(args.descriptor_param, "--descriptor-param")
-    records = list(load_dataset(args.data).records(full=False))
+    loaded = read_records(args.data, getattr(args, "allow_partial", False), full=False)
+    args.data_skipped = loaded.as_json()  # for the --json document
+    if loaded.problems:  # on stderr under --json, where stdout holds one JSON document
+        import sys
+
+        print(loaded.summary(), file=sys.stderr if getattr(args, "json", False) else sys.stdout)
+    records = loaded.records
     X = get_descriptor(args.descriptor, **params).transform(records)
     names = [class_name(r) for r in records]
     classes = sorted(set(names))
@@ -141,7 +154,10 @@ def plot(results: list[dict], matrix: np.ndarray, names: list[str], out: Path) -
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    out.mkdir(parents=True, exist_ok=True)
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise UsageError(f"cannot create --out {out}: {exc.strerror or exc}") from None
     k = np.arange(1, len(names) + 1)
     paths = []
 
@@ -153,20 +169,16 @@ def plot(results: list[dict], matrix: np.ndarray, names: list[str], out: Path) -
     ax.set(xlabel="number of objects", ylabel="test accuracy", ylim=(0, 1.02))
     ax.legend()
     ax.set_title(f"offline vs sequential over {len(results)} orders")
-    paths.append(out / "accuracy_vs_objects.png")
-    fig.tight_layout()
-    fig.savefig(paths[-1], dpi=120)
-    plt.close(fig)
+    paths.append(out / FIGURES[0])
+    _save(fig, paths[-1])
 
     fig, ax = plt.subplots(figsize=(5, 3.5))
     for key, label in (("off_updates", "offline"), ("seq_updates", "sequential")):
         ax.plot(k, np.mean([r[key] for r in results], axis=0), marker="o", label=label)
     ax.set(xlabel="number of objects", ylabel="mean updates per tree")
     ax.legend()
-    paths.append(out / "updates_per_tree.png")
-    fig.tight_layout()
-    fig.savefig(paths[-1], dpi=120)
-    plt.close(fig)
+    paths.append(out / FIGURES[1])
+    _save(fig, paths[-1])
 
     fig, ax = plt.subplots(figsize=(5.5, 4.5))
     limit = max(0.05, float(np.nanmax(np.abs(matrix))))
@@ -175,15 +187,30 @@ def plot(results: list[dict], matrix: np.ndarray, names: list[str], out: Path) -
     ax.set_yticks(range(len(names)), names)
     ax.set(xlabel="class b (recall changes)", ylabel="class a (added)")
     fig.colorbar(image, ax=ax, label="change in recall of b")
-    paths.append(out / "disturbance_matrix.png")
-    fig.tight_layout()
-    fig.savefig(paths[-1], dpi=120)
-    plt.close(fig)
+    paths.append(out / FIGURES[2])
+    _save(fig, paths[-1])
     return paths
 
 
-def experiment(X: np.ndarray, y: np.ndarray, names: list[str], args: argparse.Namespace) -> dict:
-    """All three experiments on (X, y, names); returns the raw results and the matrix."""
+def _save(fig, path: Path) -> None:
+    """Write a figure atomically (never a half-written PNG) and close it."""
+    import matplotlib.pyplot as plt
+
+    from .files import atomic_path
+
+    try:
+        fig.tight_layout()
+        with atomic_path(path, "figure") as tmp:
+            fig.savefig(tmp, dpi=120)
+    finally:
+        plt.close(fig)
+
+
+def experiment(
+    X: np.ndarray, y: np.ndarray, names: list[str], args: argparse.Namespace, say=print
+) -> dict:
+    """All three experiments on (X, y, names); returns the raw results and the matrix.
+    ``say`` receives the progress and summary lines (stdout, or stderr under --json)."""
     data = split(X, y, args.seed)
     rng = np.random.default_rng(args.seed)
     orders = [rng.permutation(len(names)) for _ in range(args.orders)]
@@ -191,30 +218,79 @@ def experiment(X: np.ndarray, y: np.ndarray, names: list[str], args: argparse.Na
     for i, order in enumerate(orders):
         result = run_order(args, data, order, args.seed + i)
         results.append(result)
-        print(
+        say(
             f"order {i}: {[names[c] for c in order]} offline {result['off_acc'][-1]:.3f} "
             f"sequential {result['seq_acc'][-1]:.3f}"
         )
     matrix = disturbance(results, orders, len(names))
     final_off = [r["off_acc"][-1] for r in results]
     final_seq = [r["seq_acc"][-1] for r in results]
-    print(
+    say(
         f"final accuracy over {len(orders)} orders: offline {np.mean(final_off):.3f} "
         f"+- {np.std(final_off):.3f}, sequential {np.mean(final_seq):.3f} "
         f"+- {np.std(final_seq):.3f}"
     )
-    print(
-        f"mean disturbance (off-diagonal): {np.nanmean(matrix):+.3f}, "
-        f"worst {np.nanmin(matrix):+.3f}"
-    )
-    print("disturbance D[a, b] (row a added, column b):")
-    print("        " + " ".join(f"{name[:7]:>7}" for name in names))
-    for name, row in zip(names, matrix, strict=True):
-        print(f"{name[:7]:>7} " + " ".join(f"{value:+7.3f}" for value in row))
+    if np.isfinite(matrix).any():
+        say(
+            f"mean disturbance (off-diagonal): {np.nanmean(matrix):+.3f}, "
+            f"worst {np.nanmin(matrix):+.3f}"
+        )
+    say(disturbance_table(matrix, names))
     return {"results": results, "orders": orders, "disturbance": matrix}
 
 
-def timing(X: np.ndarray, y: np.ndarray, names: list[str], args: argparse.Namespace) -> None:
+def disturbance_table(matrix: np.ndarray, names: list[str]) -> str:
+    """D[a, b] as text, every class name in full (columns as wide as the longest)."""
+    width = max(7, *(len(n) for n in names))
+    lines = ["disturbance D[a, b] (row a added, column b):"]
+    lines.append(" " * (width + 1) + " ".join(f"{n:>{width}}" for n in names))
+    for name, row in zip(names, matrix, strict=True):
+        cells = " ".join(f"{v:>+{width}.3f}" if np.isfinite(v) else f"{'-':>{width}}" for v in row)
+        lines.append(f"{name:>{width}} {cells}")
+    return "\n".join(lines)
+
+
+def _mean_std(values) -> dict[str, float]:
+    return {"mean": float(np.mean(values)), "std": float(np.std(values))}
+
+
+def _finite_or_none(matrix: np.ndarray) -> list[list[float | None]]:
+    return [[float(v) if np.isfinite(v) else None for v in row] for row in matrix]
+
+
+def experiment_doc(found: dict, names: list[str], args, X: np.ndarray, figures) -> dict:
+    """The ``sequential --json`` document of the experiment."""
+    results, matrix = found["results"], found["disturbance"]
+    curves = {
+        key: {
+            "offline": np.mean([r[f"off_{key}"] for r in results], axis=0).tolist(),
+            "sequential": np.mean([r[f"seq_{key}"] for r in results], axis=0).tolist(),
+        }
+        for key in ("acc", "updates")
+    }
+    finite = matrix[np.isfinite(matrix)]
+    return {
+        "classes": list(names),
+        "samples": int(X.shape[0]),
+        "features": int(X.shape[1]),
+        "descriptor": None if args.synthetic else args.descriptor,
+        "orders": [[names[c] for c in order] for order in found["orders"]],
+        "final_accuracy": {
+            "offline": _mean_std([r["off_acc"][-1] for r in results]),
+            "sequential": _mean_std([r["seq_acc"][-1] for r in results]),
+        },
+        "accuracy_vs_objects": curves["acc"],
+        "updates_per_tree": curves["updates"],
+        "disturbance": {
+            "matrix": _finite_or_none(matrix),
+            "mean": float(finite.mean()) if finite.size else None,
+            "worst": float(finite.min()) if finite.size else None,
+        },
+        "figures": [str(p) for p in figures],
+    }
+
+
+def timing(X: np.ndarray, y: np.ndarray, names: list[str], args: argparse.Namespace) -> dict:
     """Fit time, per-sample latency, per-addition time, offline vs sequential accuracy."""
     X_train, X_test, y_train, y_test = split(X, y, args.seed)
     model(args, args.seed, n_updates=2).fit(X_train, y_train)  # import torch, warm up
@@ -236,30 +312,85 @@ def timing(X: np.ndarray, y: np.ndarray, names: list[str], args: argparse.Namesp
         start = time.perf_counter()
         sequential.partial_fit(X_train[new], y_train[new])
         additions.append(time.perf_counter() - start)
-    print(
-        f"data: {len(names)} classes x {args.per_class} samples x {X.shape[1]} features "
-        f"({len(y_train)} train / {len(y_test)} test); n_updates={args.n_updates}, "
-        f"n_recalibration_updates={args.recalibration}, memory_size={args.memory}"
-    )
-    print(f"offline fit: {fit_s:.2f} s")
-    print(
-        f"predict one sample: median {1e3 * statistics.median(latencies):.3f} ms; "
-        f"batch of {len(X_test)}: {1e6 * batch_s / len(X_test):.1f} us/sample"
-    )
-    print("partial_fit per added class (s): " + " ".join(f"{s:.2f}" for s in additions))
-    print(
-        f"accuracy: offline {offline.score(X_test, y_test):.3f}, "
-        f"sequential {sequential.score(X_test, y_test):.3f}"
+    return {
+        "classes": list(names),
+        "train_samples": int(len(y_train)),
+        "test_samples": int(len(y_test)),
+        "features": int(X.shape[1]),
+        "n_updates": args.n_updates,
+        "n_recalibration_updates": args.recalibration,
+        "memory_size": args.memory,
+        "fit_time_s": fit_s,
+        "predict_latency_ms": 1e3 * statistics.median(latencies),
+        "predict_batch_us_per_sample": 1e6 * batch_s / len(X_test),
+        "add_class_s": additions,
+        "accuracy": {
+            "offline": float(offline.score(X_test, y_test)),
+            "sequential": float(sequential.score(X_test, y_test)),
+        },
+    }
+
+
+def timing_text(doc: dict) -> str:
+    return "\n".join(
+        [
+            f"data: {len(doc['classes'])} classes, {doc['train_samples']} train / "
+            f"{doc['test_samples']} test samples x {doc['features']} features; "
+            f"n_updates={doc['n_updates']}, n_recalibration_updates="
+            f"{doc['n_recalibration_updates']}, memory_size={doc['memory_size']}",
+            f"offline fit: {doc['fit_time_s']:.2f} s",
+            f"predict one sample: median {doc['predict_latency_ms']:.3f} ms; batch of "
+            f"{doc['test_samples']}: {doc['predict_batch_us_per_sample']:.1f} us/sample",
+            "partial_fit per added class (s): " + " ".join(f"{s:.2f}" for s in doc["add_class_s"]),
+            f"accuracy: offline {doc['accuracy']['offline']:.3f}, "
+            f"sequential {doc['accuracy']['sequential']:.3f}",
+        ]
     )
 
 
 def run(args: argparse.Namespace) -> int:
     """The `tactile-bullet sequential` command (arguments in cli/sequential.py)."""
+    import sys
+
+    from .cli.common import emit_json
+
+    json_mode = bool(getattr(args, "json", False))
+
+    def say(text: str) -> None:
+        print(text, file=sys.stderr if json_mode else sys.stdout, flush=True)
+
     X, y, names = load_data(args)
+    counts = np.bincount(y, minlength=len(names))
+    if len(names) < 2:
+        raise UsageError(f"the data holds a single class ({names[0]}): nothing to learn in order")
+    if counts.min() < 3:
+        raise UsageError(
+            f"class {names[int(counts.argmin())]!r} has {int(counts.min())} samples: the "
+            "experiment holds a third of each class out for testing and needs at least 3"
+        )
+    if not args.timing:
+        from .files import probe_folder
+
+        probe_folder(args.out, "--out")  # before minutes of training, not after
     if args.timing:
-        timing(X, y, names, args)
+        doc = timing(X, y, names, args)
+        if json_mode:
+            emit_json(_with_skipped(doc, args))
+        else:
+            say(timing_text(doc))
         return 0
-    found = experiment(X, y, names, args)
-    for path in plot(found["results"], found["disturbance"], names, args.out):
-        print(f"wrote {path}")
+    found = experiment(X, y, names, args, say)
+    figures = plot(found["results"], found["disturbance"], names, args.out)
+    if json_mode:
+        emit_json(_with_skipped(experiment_doc(found, names, args, X, figures), args))
+    else:
+        for path in figures:
+            say(f"wrote {path}")
     return 0
+
+
+def _with_skipped(doc: dict, args: argparse.Namespace) -> dict:
+    """``data_skipped`` (docs/json.md) under --allow-partial, as the other commands do."""
+    if getattr(args, "allow_partial", False) and hasattr(args, "data_skipped"):
+        doc["data_skipped"] = args.data_skipped
+    return doc

@@ -32,14 +32,20 @@ from __future__ import annotations
 import math
 import tomllib
 from collections.abc import Mapping, Sequence
-from dataclasses import asdict, dataclass, field, fields
+from dataclasses import dataclass, field, fields
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from .errors import UsageError
-from .records import ControllerSettings, Pose
+from .records import (
+    MAX_OFFSET_M,
+    MAX_ROTATION_DEG,
+    ControllerSettings,
+    Pose,
+    controller_dict,
+)
 
 if TYPE_CHECKING:
     from .meshes import MeshSource
@@ -47,6 +53,12 @@ if TYPE_CHECKING:
 
 Dimension = tuple[float, ...] | dict[str, float]
 """A list of values, or {"min", "max"} (+ "steps" in grid mode)."""
+
+MAX_GRASPS = 1_000_000
+"""Most grasps one sweep may hold. Its tasks are built in memory before any simulation
+(about 1 kB each), and a million grasps is already days of simulation on a few cores; a typo
+such as ``samples = 1000000000`` or a grid of 1e12 points is refused before anything is
+allocated (:meth:`Sweep.size`). Split larger collections into several datasets."""
 
 SHAPE_KEYS = ("name", "params", "offset_x", "offset_y", "offset_z", "rotation_deg", "samples")
 SWEEP_KEYS = ("name", "mode", "samples", "controller", "shapes", "objects")
@@ -127,7 +139,7 @@ class Sweep:
         _no_unknown(controller_data, tuple(known), f"{source}: [controller]")
         try:
             controller = ControllerSettings(**controller_data)
-        except TypeError as exc:
+        except (TypeError, ValueError) as exc:  # UsageError is a ValueError
             raise UsageError(f"{source}: [controller] {exc}") from None
         shapes_data = data.get("shapes", [])
         objects_data = data.get("objects", [])
@@ -159,11 +171,13 @@ class Sweep:
     def from_toml(cls, path: str | Path) -> Sweep:
         path = Path(path)
         try:
-            data = tomllib.loads(path.read_text())
+            data = tomllib.loads(path.read_text(encoding="utf-8"))
         except FileNotFoundError:
             raise UsageError(f"config file {path} does not exist") from None
         except OSError as exc:
             raise UsageError(f"cannot read config {path}: {exc.strerror or exc}") from None
+        except UnicodeDecodeError:
+            raise UsageError(f"{path} is not a UTF-8 text file (TOML must be UTF-8)") from None
         except tomllib.TOMLDecodeError as exc:
             raise UsageError(f"{path} is not valid TOML: {exc}") from None
         return cls.from_dict(data, source=str(path), base=path.parent)
@@ -174,17 +188,39 @@ class Sweep:
             "name": self.name,
             "mode": self.mode,
             "samples": self.samples,
-            "controller": asdict(self.controller),
+            "controller": controller_dict(self.controller),
             "shapes": [_shape_dict(s) for s in self.shapes],
         } | ({"objects": [_object_dict(o) for o in self.objects]} if self.objects else {})
 
     # --- expansion ----------------------------------------------------------------------
 
+    def size(self) -> int:
+        """How many grasps the sweep holds at most (before size combinations that make no
+        solid are left out), computed from the dimensions without expanding them."""
+        total = 0
+        for sweep in self.shapes:
+            if self.mode == "random":
+                total += sweep.samples or self.samples
+                continue
+            n = 1
+            for dim in (*sweep.params.values(), sweep.offset_x, sweep.offset_y,
+                        sweep.offset_z, sweep.rotation_deg):  # fmt: skip
+                n *= len(dim) if isinstance(dim, tuple) else int(dim["steps"])
+            total += n
+        return total
+
     def tasks(self, seed: int = 0) -> list[GraspTask]:
         """Every grasp of the sweep, in a fixed order, each with its own seed derived from
-        ``seed`` and its index (so any subset can be re-run and give the same records)."""
+        ``seed`` and its index (so any subset can be re-run and give the same records).
+        A sweep over :data:`MAX_GRASPS`, or one that leaves a shape with no valid size, is
+        refused before any work."""
         from .grasp import resolve_shape
 
+        if self.size() > MAX_GRASPS:
+            raise UsageError(
+                f"sweep {self.name!r} holds {self.size():,} grasps, over the limit of "
+                f"{MAX_GRASPS:,} per dataset: lower samples or steps, or split it"
+            )
         rng = np.random.default_rng(np.random.SeedSequence([int(seed), 0]))
         specs: list[tuple[str, dict[str, float], Pose, MeshSource | None]] = []
         for sweep in self.shapes:
@@ -203,6 +239,11 @@ class Sweep:
                 rows = [r for r in _grid(dims) if geometry_ok(shape.name, _sizes(r))]
             else:
                 rows = _random(dims, sweep.samples or self.samples, rng, shape.name)
+            if not rows:
+                raise UsageError(
+                    f"sweep {self.name!r}: no size combination of {shape.name} makes a valid "
+                    "solid, so the sweep would simulate none of it"
+                )
             for row in rows:
                 params = _sizes(row)
                 shape.resolve(params)  # out-of-range sizes are refused before any work
@@ -323,11 +364,37 @@ def _sequential() -> Sweep:
     return Sweep("sequential", tuple(shapes), mode="random", samples=40)
 
 
+def _temporal() -> Sweep:
+    """Chapter 3's validation grasps (thesis Figs 3.4, 3.8): the five thesis shapes at the small
+    end of their sizes, moved up to 30 mm sideways along O-O' so that the outer fingers often
+    miss the object, 40 random draws each (200 grasps)."""
+    from .shapes import BUILTIN_SHAPES
+
+    shapes = []
+    for shape in BUILTIN_SHAPES:
+        if not shape.thesis:
+            continue
+        small = {
+            k: {"min": p.min, "max": round(p.min + 0.4 * (p.max - p.min), 5)}
+            for k, p in shape.params.items()
+        }
+        shapes.append(
+            ShapeSweep(
+                shape.name,
+                small,
+                offset_x={"min": -0.03, "max": 0.03},
+                offset_z={"min": -0.005, "max": 0.005},
+            )
+        )
+    return Sweep("temporal", tuple(shapes), mode="random", samples=40)
+
+
 PRESETS = {
     "thesis": _thesis,
     "modified": _modified,
     "sequential": _sequential,
     "smoke": _smoke,
+    "temporal": _temporal,
 }
 
 
@@ -405,6 +472,14 @@ def _shape_sweep(data: Any, mode: str, where: str) -> ShapeSweep:
         for key in ("offset_x", "offset_y", "offset_z", "rotation_deg")
         if key in data
     }
+    for key, dim in kwargs.items():
+        # the CLI's bounds (records.Pose), checked here so the file's key is named
+        limit, unit = (MAX_ROTATION_DEG, "deg") if key == "rotation_deg" else (MAX_OFFSET_M, "m")
+        lo, hi = (min(dim), max(dim)) if isinstance(dim, tuple) else (dim["min"], dim["max"])
+        if lo < -limit or hi > limit:
+            raise UsageError(
+                f"{where} {key} spans [{lo:g}, {hi:g}] {unit}, outside [-{limit:g}, {limit:g}]"
+            )
     samples = data.get("samples")
     if samples is not None:
         samples = _positive_int(samples, f"{where} samples")

@@ -35,6 +35,10 @@ def _demo_classifiers() -> tuple[str, ...]:
 
 DEMO_CLASSIFIERS: tuple[str, ...] = _demo_classifiers()
 
+MIN_TRAIN_PER_SHAPE = 2
+""":func:`compare` trains every classifier on the same set: each shape needs two grasps (the
+svm's calibration folds need two), checked before any pair is fitted."""
+
 LATENCY_SAMPLES = 20
 """Single-grasp predictions timed per pair in :func:`compare` (the median is reported)."""
 
@@ -42,36 +46,18 @@ LATENCY_SAMPLES = 20
 # --- data ---------------------------------------------------------------------------------------
 
 
-def records_from(path: str | os.PathLike) -> list[GraspRecord]:
+def records_from(path: str | os.PathLike, allow_partial: bool = False) -> list[GraspRecord]:
     """Every record of a dataset folder (manifest and shards), of a folder of ``.npz`` records,
-    or of one ``.npz`` record file."""
-    from .records import load_record
+    or of one ``.npz`` record file. Damaged data (a shard that fails its checksum, a shard
+    missing or never generated, an unreadable record file) is an error naming it, unless
+    ``allow_partial``: then it is skipped with a :class:`~tactile_bullet.dataset.PartialDataWarning`
+    saying how many records were left out (:func:`tactile_bullet.dataset.read_records` returns
+    them as data)."""
+    from .dataset import read_records
 
-    path = Path(path)
-    if not path.exists():
-        raise UsageError(f"data path {path} does not exist")
-    if path.is_file():
-        return [load_record(path)]
-    if _is_dataset(path):
-        try:
-            from .dataset import load_dataset
-        except ImportError:
-            raise UsageError(f"{path} is a dataset but this install cannot read datasets") from None
-        records = list(load_dataset(path))
-    else:
-        files = sorted(path.glob("*.npz"))
-        records = [load_record(f) for f in files]
-    if not records:
-        raise UsageError(f"{path} holds no grasp records")
-    return records
-
-
-def _is_dataset(path: Path) -> bool:
-    try:
-        from .dataset import is_dataset
-    except ImportError:
-        return (path / "manifest.json").is_file()
-    return bool(is_dataset(path))
+    loaded = read_records(path, allow_partial)
+    loaded.warn()
+    return loaded.records
 
 
 def labels_of(records: Sequence[GraspRecord]) -> np.ndarray:
@@ -101,7 +87,7 @@ def split(
         raise UsageError(f"the data holds a single shape ({names[0]}): nothing to tell apart")
     if counts.min() < 2:
         raise UsageError(
-            f"shape {names[counts.argmin()]!r} has only one record: a split needs at least two"
+            f"shape {str(names[counts.argmin()])!r} has only one record: a split needs at least two"
         )
     n_test = max(len(names), int(round(test_fraction * len(records))))
     if len(records) - n_test < len(names):
@@ -162,10 +148,18 @@ def _fit(estimator, classifier: str, user_params: bool, features: np.ndarray, y:
     try:
         return estimator.fit(features, y)
     except (ValueError, TypeError) as exc:
-        if not user_params:
-            raise
         first = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
-        raise UsageError(f"classifier {classifier!r} rejected its parameters: {first}") from None
+        if user_params:
+            raise UsageError(
+                f"classifier {classifier!r} rejected its parameters: {first}"
+            ) from None
+        if isinstance(exc, TypeError):
+            raise
+        # scikit-learn's convention: fit raises ValueError for data it cannot learn from
+        # (too few samples of a class, ...): the user's data, not a bug
+        raise UsageError(
+            f"classifier {classifier!r} cannot be trained on this data: {first}"
+        ) from None
 
 
 def predict(model, records: Sequence[GraspRecord]) -> np.ndarray:
@@ -174,7 +168,7 @@ def predict(model, records: Sequence[GraspRecord]) -> np.ndarray:
 
 
 def evaluate(model, records: Iterable[GraspRecord]) -> dict[str, Any]:
-    """Score a model on labelled records: the ``evaluate --json`` document (DESIGN section 5)
+    """Score a model on labelled records: the ``evaluate --json`` document (docs/json.md)
     with accuracy by object size and by position, and which model was scored."""
     from .reports import class_order, evaluation_report
 
@@ -191,6 +185,11 @@ def evaluate(model, records: Iterable[GraspRecord]) -> dict[str, Any]:
     unknown = sorted(set(y_true) - set(known))
     if unknown:
         doc["unknown_classes"] = unknown
+    from .contact import nothing_to_identify
+
+    # scored like every grasp (a model answers them all), but counted: a grasp that touched
+    # nothing carries no shape, and `identify` names none
+    doc["no_contact"] = sum(nothing_to_identify(r) is not None for r in records)
     doc["model"] = describe_model(model)
     return doc
 
@@ -206,7 +205,14 @@ def describe_model(model) -> dict[str, Any]:
 
 
 def identify(model, record: GraspRecord) -> dict[str, Any]:
-    """Name the shape of one grasp: ``{"shape", "probabilities": {class: p}}``."""
+    """Name the shape of one grasp: ``{"shape", "probabilities": {class: p}}``; a grasp
+    that touched too little gets no name: ``{"shape": None, "reason", "probabilities": {}}``
+    (:mod:`tactile_bullet.contact`)."""
+    from .contact import nothing_to_identify
+
+    reason = nothing_to_identify(record)
+    if reason is not None:
+        return {"shape": None, "reason": reason, "probabilities": {}}
     classes = [str(c) for c in model.classes]
     # the estimator's own decision, which can differ from the probability argmax (SVM + Platt)
     shape = str(predict(model, [record])[0])
@@ -248,6 +254,12 @@ def compare(
     y_train, y_test = labels_of(train_records), labels_of(test_records)
     if len(set(y_train)) < 2:
         raise UsageError("training needs at least two shapes")
+    names, counts = np.unique(y_train, return_counts=True)
+    if counts.min() < MIN_TRAIN_PER_SHAPE:
+        raise UsageError(
+            f"shape {str(names[counts.argmin()])!r} has {int(counts.min())} training grasp(s); "
+            f"compare needs at least {MIN_TRAIN_PER_SHAPE} per shape (more data, or --test)"
+        )
     # resolve every name up front so a typo fails before minutes of fitting
     descs = [get_descriptor(d) for d in descriptors]
     _check_classifiers(classifiers)
@@ -371,37 +383,70 @@ _OWN_RECORD = re.compile(r"rec\d{5}\.npz(\.tmp)?")
 """Files :func:`save_records` writes (the .tmp of one interrupted mid-write included)."""
 
 
-def save_records(records: Sequence[GraspRecord], folder: str | os.PathLike) -> Path:
+def _own_records(folder: Path) -> list[Path]:
+    return sorted(p for p in folder.glob("rec*.npz") if _OWN_RECORD.fullmatch(p.name))
+
+
+def save_records(
+    records: Sequence[GraspRecord], folder: str | os.PathLike, force: bool = False
+) -> Path:
     """Write records as ``folder/rec00000.npz``... (each file atomic), a folder that
-    :func:`records_from` reads back; records left from an earlier, larger run are removed."""
+    :func:`records_from` reads back.
+
+    Records already there are refused unless ``force``; even then nothing is deleted, so a
+    folder that would keep records of an earlier, larger run beside the new ones (a mixed
+    set) is refused before anything is written."""
     from .records import save_record
 
     folder = Path(folder)
+    existing = _own_records(folder) if folder.is_dir() else []
+    if existing and not force:
+        raise UsageError(f"{folder} already holds {len(existing)} records; add --force to "
+                         "overwrite them")  # fmt: skip
+    names = {f"rec{i:05d}.npz" for i in range(len(records))}
+    left = [p.name for p in existing if p.name not in names]
+    if left:
+        raise UsageError(
+            f"{folder} holds {len(existing)} records of an earlier run and this one writes "
+            f"{len(records)}: {left[0]}... would be left beside them; choose another folder"
+        )
     try:
         folder.mkdir(parents=True, exist_ok=True)
     except OSError as exc:
         raise UsageError(f"cannot create {folder}: {exc.strerror or exc}") from None
-    names = set()
     for i, rec in enumerate(records):
-        names.add(save_record(rec, folder / f"rec{i:05d}.npz").name)
-    for stale in folder.glob("rec*.npz*"):
-        if stale.name not in names and _OWN_RECORD.fullmatch(stale.name):
-            stale.unlink()
+        save_record(rec, folder / f"rec{i:05d}.npz")
     return folder
 
 
-def _check_record_folder(folder: Path) -> None:
-    """Refuse, before any work, to write records into a folder holding anything else: the
-    demo replaces its own ``rec*.npz`` files and must never touch a user's."""
+def _check_record_folder(folder: Path, planned: int, force: bool) -> None:
+    """Refuse, before any work, to write records into a folder holding anything else (the
+    demo must never touch a user's files), or holding earlier records unless ``force``, or
+    more earlier records than the ``planned`` ones would replace."""
     if folder.exists() and not folder.is_dir():
         raise UsageError(f"{folder} exists and is not a directory")
-    if folder.is_dir():
-        others = [p.name for p in folder.iterdir() if not _OWN_RECORD.fullmatch(p.name)]
-        if others:
-            raise UsageError(
-                f"{folder} holds files the demo did not write ({others[0]}...): "
-                "choose another --out"
-            )
+    if not folder.is_dir():
+        return
+    others = [p.name for p in folder.iterdir() if not _OWN_RECORD.fullmatch(p.name)]
+    if others:
+        raise UsageError(
+            f"{folder} holds files the demo did not write ({others[0]}...): choose another --out"
+        )
+    existing = _own_records(folder)
+    if existing and not force:
+        raise UsageError(
+            f"{folder} holds {len(existing)} records of an earlier demo; add --force to "
+            "overwrite them, or choose another --out"
+        )
+    if len(existing) > planned:
+        raise UsageError(
+            f"{folder} holds {len(existing)} records of an earlier, larger demo and this one "
+            f"writes {planned}: the rest would be left beside the new ones; choose another --out"
+        )
+
+
+DEMO_REPORT_FILES: tuple[str, ...] = ("signatures.png", "comparison.json", "demo.json")
+"""What the demo writes into ``report/`` besides the evaluation report."""
 
 
 # --- demo ---------------------------------------------------------------------------------------
@@ -511,6 +556,7 @@ def demo(
     classifiers: Sequence[str] = DEMO_CLASSIFIERS,
     show: bool = False,
     log: Callable[[str], None] | None = None,
+    force: bool = False,
 ) -> dict[str, Any]:
     """The first thing to run: simulate a training set and a held-out test set of the five
     thesis shapes (test sizes and offsets never seen in training), train signature + SVM,
@@ -518,16 +564,31 @@ def demo(
 
     ``out`` receives ``train/`` and ``test/`` (the simulated records), ``model.npz`` (the
     signature + SVM model) and ``report/`` (report.json, confusion matrix, accuracy by size and
-    position, example signatures, comparison.json, demo.json)."""
+    position, example signatures, comparison.json, demo.json). Outputs of an earlier demo
+    there are refused unless ``force``; nothing is ever deleted."""
+    from .files import existing_outputs
     from .models import save_model
-    from .reports import plot_signatures, report_dir, write_evaluation_report, write_json
+    from .reports import (
+        REPORT_FILES,
+        plot_signatures,
+        report_dir,
+        write_evaluation_report,
+        write_json,
+    )
 
     say = log or (lambda _msg: None)
     if train_per_shape < 2 or test_per_shape < 1:
         raise UsageError("the demo needs at least 2 training and 1 test grasp per shape")
+    out = Path(out)
+    if out.exists() and not out.is_dir():
+        raise UsageError(f"report path {out} exists and is not a directory")
+    n = len(DEMO_SHAPES)
+    planned = {"train": n * train_per_shape, "test": n * test_per_shape}
+    for name, size in planned.items():
+        _check_record_folder(out / name, size, force)
+    existing_outputs(out, ("model.npz",), "--out", force)
+    existing_outputs(out / "report", REPORT_FILES + DEMO_REPORT_FILES, "--out", force)
     out = report_dir(out)
-    for name in ("train", "test"):
-        _check_record_folder(out / name)
     report = report_dir(out / "report")
     started = time.perf_counter()
     rng = np.random.default_rng(seed)
@@ -545,8 +606,8 @@ def demo(
         raise UsageError("too few grasps could be simulated to train and test a model")
     # the grasps are the expensive part: on disk before any learning, for reuse with
     # `train --data OUT/train` and `evaluate --data OUT/test`
-    save_records(train_records, out / "train")
-    save_records(test_records, out / "test")
+    save_records(train_records, out / "train", force)
+    save_records(test_records, out / "test", force)
 
     model = train(train_records, "signature", "svm")
     model.info.update({"made_by": "demo", "seed": int(seed), "train_records": len(train_records)})

@@ -22,7 +22,10 @@ PAIRS = [
 ]
 
 
-CHECKED_ELSEWHERE = {"neural-forest": "tests/test_neural_forest.py, with quick settings"}
+CHECKED_ELSEWHERE = {
+    "neural-forest": "tests/test_neural_forest.py, with quick settings",
+    "tcn": "tests/test_time_series.py, with quick settings",
+}
 """Classifiers whose conformance checks run in their own test module (with settings that keep
 the checks fast); every other registered classifier, a plugin's included, is checked here."""
 

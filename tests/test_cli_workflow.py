@@ -1,4 +1,4 @@
-"""The train / evaluate / compare / identify / demo commands: JSON contracts (DESIGN section 5)
+"""The train / evaluate / compare / identify / demo commands: JSON contracts (docs/json.md)
 and bad input (exit 2, one line on stderr, nothing already written lost)."""
 
 from __future__ import annotations

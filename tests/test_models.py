@@ -56,7 +56,9 @@ def test_model_remembers_names_parameters_and_versions(synthetic_split, tmp_path
     )
     model.info["records"] = len(synthetic_split[0])
     loaded = load_model(save_model(tmp_path / "m.npz", model))
-    assert loaded.descriptor_params == {"points": 20, "alpha": False, "level": False, "floor": 0.05}
+    assert loaded.descriptor_params == {
+        "points": 20, "alpha": False, "level": False, "floor": 0.05, "correction": "none"
+    }  # fmt: skip
     assert loaded.classifier_params == {"n_neighbors": 3}
     assert loaded.estimator.n_neighbors == 3
     assert loaded.info == {"records": len(synthetic_split[0])}

@@ -184,3 +184,89 @@ feature_fraction each tree would see one feature, so the checked instance sees b
 @parametrize_with_checks([CHECKED])
 def test_sklearn_estimator_checks(estimator, check) -> None:
     check(estimator)
+
+
+# -- bounds (issue 10): sizes and devices refused before any work -----------------------------
+
+
+def test_a_huge_forest_is_refused_before_anything_is_allocated(problem) -> None:
+    """depth=40 means 2**40 leaves per tree: the estimate (petabytes) is refused up front."""
+    import tracemalloc
+
+    from tactile_bullet.errors import UsageError
+
+    X_train, _, y_train, _ = problem
+    model = NeuralForestClassifier(depth=40)
+    assert model.memory_estimate(X_train.shape[1], 5) > 1024**5  # more than a PiB
+    tracemalloc.start()
+    try:
+        with pytest.raises(UsageError, match=r"depth=40.*PiB.*limit is 2 GiB"):
+            model.fit(X_train, y_train)
+        peak = tracemalloc.get_traced_memory()[1]
+    finally:
+        tracemalloc.stop()
+    assert peak < 50 * 1024**2
+    assert not hasattr(model, "classes_")
+
+
+def test_the_estimate_doubles_with_each_level_and_defaults_are_small() -> None:
+    small = NeuralForestClassifier().memory_estimate(50, 7)
+    deeper = NeuralForestClassifier(depth=5).memory_estimate(50, 7)
+    assert small < 50 * 1024**2
+    assert 1.8 < deeper / small < 2.1
+
+
+def test_partial_fit_checks_the_size_with_the_new_classes(problem) -> None:
+    from tactile_bullet.errors import UsageError
+
+    X_train, _, y_train, _ = problem
+    model = NeuralForestClassifier(depth=20, n_trees=1, n_updates=1)
+    limit = 2 * 1024**3
+    fits = [k for k in range(1, 6) if model.memory_estimate(X_train.shape[1], k) <= limit]
+    assert fits and len(fits) < 5  # some classes fit the budget, all five do not
+    first = y_train == 0
+    model.partial_fit(X_train[first][:5], y_train[first][:5])
+    with pytest.raises(UsageError, match="depth=20"):
+        model.partial_fit(X_train, y_train)
+
+
+def test_predict_in_small_chunks_gives_the_same_probabilities(problem, monkeypatch) -> None:
+    from tactile_bullet import neural_forest
+
+    X_train, X_test, y_train, _ = problem
+    model = NeuralForestClassifier(random_state=0, **SMALL).fit(X_train, y_train)
+    whole = model.predict_proba(X_test)
+    monkeypatch.setattr(neural_forest, "_PREDICT_CHUNK_BYTES", 1)  # one row at a time
+    np.testing.assert_allclose(model.predict_proba(X_test), whole, rtol=1e-12, atol=1e-15)
+
+
+@pytest.mark.parametrize("device", ["cuda", "cuda:7", "tpu", "", "mps"])
+def test_a_device_this_machine_lacks_is_a_usage_error(device, problem) -> None:
+    import torch
+
+    from tactile_bullet.errors import UsageError
+
+    if device.startswith("cuda") and torch.cuda.is_available() and device == "cuda":
+        pytest.skip("this machine has a CUDA GPU")
+    if device == "mps" and torch.backends.mps.is_available():
+        pytest.skip("this machine has MPS")
+    X_train, _, y_train, _ = problem
+    with pytest.raises(UsageError, match="device"):
+        NeuralForestClassifier(device=device, **SMALL).fit(X_train, y_train)
+
+
+def test_cli_refuses_cuda_on_a_cpu_build_and_huge_depth_with_one_line(capsys, tmp_path) -> None:
+    import torch
+    from cli_helpers import run_error
+    from synthetic import make_records
+    from test_cli_workflow import write_records
+
+    data = write_records(tmp_path / "data", make_records(per_shape=3, seed=4))
+    base = ["train", "--data", str(data), "--classifier", "neural-forest"]
+    out = ["--out", str(tmp_path / "m.npz")]
+    if not torch.cuda.is_available():
+        err = run_error(capsys, [*base, "--param", "device=cuda", *out])
+        assert "no CUDA" in err
+    err = run_error(capsys, [*base, "--param", "depth=40", *out])
+    assert "PiB" in err and "limit" in err
+    assert not (tmp_path / "m.npz").exists()

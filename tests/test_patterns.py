@@ -143,11 +143,14 @@ def test_signature_summary_has_the_grasp_json_fields(grasps):
 
     summary = signature_summary(grasps["cone"][0])
     assert set(summary) == {
-        "alpha_deg", "rotation_estimate_deg", "nearest_pattern", "distances",
-        "in_identification_range",
+        "alpha_deg", "rotation_estimate_deg", "identified", "identified_uncorrected",
+        "nearest_pattern", "distances", "in_identification_range", "correction",
     }  # fmt: skip
+    assert summary["correction"]["detector"] == "dynamic"
     assert set(summary["distances"]) == set(default_library())
-    assert summary["nearest_pattern"] in {*default_library(), "unknown"}
+    assert summary["identified"] in {*default_library(), "unknown"}
+    # nearest_pattern is the smallest DTW distance, whatever the identification decided
+    assert summary["nearest_pattern"] == min(summary["distances"], key=summary["distances"].get)
     # the cone of radius 40 mm, length 140 mm lies where identification held; the
     # cylinder of 25 mm does not (tools/invariance.py: only the 20 mm cylinder)
     assert summary["in_identification_range"] is True

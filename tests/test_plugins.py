@@ -201,6 +201,7 @@ def test_combination_parameters_reach_the_right_part():
         "signature.alpha": False,
         "signature.level": False,
         "signature.floor": 0.05,
+        "signature.correction": "none",
         "raw-joints.include_thumb": True,
     }
     again = plugins.get_descriptor(desc.name, **desc.params)

@@ -1,4 +1,4 @@
-"""The hand's URDF against shared/reference/shadow-hand-kinematics.md (numbers copied here on
+"""The hand's URDF against docs/hand.md (numbers copied here on
 purpose: the test must not read them from the generator it checks)."""
 
 from __future__ import annotations

@@ -18,6 +18,15 @@ same splits (the figures in ``descriptors.py`` and ``classifiers/svm.py`` come f
     python tools/bench_accuracy.py --seeds 0,1,2,3,4,5 --descriptor-param points=50
     python tools/bench_accuracy.py --seeds 0,1,2,3,4,5 --param C=10
     python tools/bench_accuracy.py --seeds 0,1,2,3,4,5 --classifier knn --descriptor-param points=50
+
+``--descriptor`` scores another descriptor (``signature+contact-normals``, ``time-series`` with
+``--classifier tcn``). ``--out DIR`` keeps each seed's simulated grasps; a later run with the
+same ``--out`` and ``--reuse`` trains and tests on them instead of simulating again (the same
+grasps, since a seed fixes every draw), which makes comparing models cheap:
+
+    python tools/bench_accuracy.py --seeds 0,1,2,3,4,5 --out splits
+    python tools/bench_accuracy.py --seeds 0,1,2,3,4,5 --out splits --reuse --classifier tcn \
+        --descriptor time-series
 """
 
 from __future__ import annotations
@@ -32,15 +41,22 @@ ACCURACY_TARGET = 0.95
 
 
 def model_name(args) -> str:
-    """'signature[k=v] + classifier[k=v]' for what is scored."""
+    """'descriptor[k=v] + classifier[k=v]' for what is scored."""
     dp = ",".join(args.descriptor_param or [])
     cp = ",".join(args.param or [])
-    return f"signature{f'[{dp}]' if dp else ''} + {args.classifier}{f'[{cp}]' if cp else ''}"
+    return (
+        f"{args.descriptor}{f'[{dp}]' if dp else ''} + {args.classifier}{f'[{cp}]' if cp else ''}"
+    )
 
 
 def custom(args) -> bool:
     """Whether the scored model differs from the demo's signature + svm with defaults."""
-    return bool(args.classifier != "svm" or args.param or args.descriptor_param)
+    return bool(
+        args.classifier != "svm"
+        or args.param
+        or args.descriptor_param
+        or args.descriptor != "signature"
+    )
 
 
 def rescore(args, doc: dict) -> None:
@@ -51,7 +67,7 @@ def rescore(args, doc: dict) -> None:
 
     model = train(
         records_from(doc["data"]["train"]),
-        "signature",
+        args.descriptor,
         args.classifier,
         estimator_params(args.param, "--param"),
         estimator_params(args.descriptor_param, "--descriptor-param"),
@@ -66,6 +82,8 @@ def run_split(args, seed: int, out: str | None) -> dict:
     from tactile_bullet.reports import confusion_text
     from tactile_bullet.workflow import demo
 
+    if args.reuse:
+        return reuse_split(args, seed, out)
     with tempfile.TemporaryDirectory() as tmp:
         doc = demo(
             out or tmp,
@@ -96,6 +114,21 @@ def run_split(args, seed: int, out: str | None) -> dict:
     return doc
 
 
+def reuse_split(args, seed: int, out: str | None) -> dict:
+    """Score the chosen model on a split an earlier ``--out`` run kept (no simulation)."""
+    from tactile_bullet.reports import confusion_text
+
+    folder = Path(out) if out else None
+    if folder is None or not (folder / "train").is_dir() or not (folder / "test").is_dir():
+        raise SystemExit(f"--reuse needs {folder}/train and {folder}/test from an --out run")
+    doc = {"data": {"train": str(folder / "train"), "test": str(folder / "test")}}
+    rescore(args, doc)
+    n_test = sum(sum(row) for row in doc["confusion_matrix"])
+    print(f"seed {seed}: {model_name(args)} {100 * doc['accuracy']:.1f}% on {n_test} grasps")
+    print(confusion_text(doc["confusion_matrix"], doc["classes"]))
+    return doc
+
+
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--train-per-shape", type=int, default=40)
@@ -105,10 +138,15 @@ def main() -> int:
     parser.add_argument("--seeds", help="several independent splits, e.g. 0,1,2,3,4,5")
     parser.add_argument("--out", help="keep models and reports here, one folder per seed")
     parser.add_argument("--classifier", default="svm", help="classifier to score (default svm)")
+    parser.add_argument("--descriptor", default="signature", help="descriptor (default signature)")
+    parser.add_argument(
+        "--reuse", action="store_true",
+        help="score on the grasps an earlier run kept in --out (no simulation)",
+    )  # fmt: skip
     parser.add_argument("--param", action="append", metavar="KEY=VALUE", help="its parameter")
     parser.add_argument(
         "--descriptor-param", action="append", metavar="KEY=VALUE",
-        help="signature descriptor parameter, e.g. points=50",
+        help="descriptor parameter, e.g. points=50",
     )  # fmt: skip
     args = parser.parse_args()
     try:

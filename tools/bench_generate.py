@@ -8,7 +8,9 @@ Prints:
   the worker pool's fixed start-up cost (1 worker process vs in process);
 - bytes per grasp on disk;
 - peak memory while loading the features of a 100k-grasp dataset (written with the real shard
-  writer by replicating simulated records, since simulating 100k takes a day on 2 cores).
+  writer by replicating simulated records, since simulating 100k takes a day on 2 cores);
+- the time `verify` takes to check that dataset (every shard's size, sha256 and record count,
+  as `generate --resume` does before resuming), in MB/s.
 
     python tools/bench_generate.py [--grasps 32] [--big 100000]
 """
@@ -26,7 +28,7 @@ import tempfile
 import time
 from pathlib import Path
 
-from tactile_bullet.dataset import _fsync_write, encode_shard, generate, load_dataset
+from tactile_bullet.dataset import _fsync_write, encode_shard, generate, load_dataset, verify
 from tactile_bullet.executors import run_task
 from tactile_bullet.sweeps import ShapeSweep, Sweep
 
@@ -41,11 +43,15 @@ def sweep(n: int) -> Sweep:
 
 
 def manifest_of(n_shards: int, digest: str, per_shard: int = 1000) -> dict:
-    """A manifest listing ``n_shards`` copies of one shard (the replicated big dataset)."""
+    """A valid manifest listing ``n_shards`` copies of one shard (the replicated big
+    dataset)."""
+    config = {"sweep": {}, "seed": 0, "shard_size": per_shard}
     return {
-        "format": 1, "config": {}, "tasks": n_shards * per_shard, "software": {}, "failed": [],
+        "format": 1, "config": config, "tasks": n_shards * per_shard, "software": {},
+        "failed": [],
         "shards": [{"block": i, "file": f"shard-{i:05d}.npz", "records": per_shard,
-                    "failed": 0, "tasks": [], "sha256": digest} for i in range(n_shards)],
+                    "failed": 0, "tasks": list(range(i * per_shard, (i + 1) * per_shard)),
+                    "sha256": digest} for i in range(n_shards)],
     }  # fmt: skip
 
 
@@ -138,6 +144,13 @@ def main() -> None:
             capture_output=True, text=True, check=True,
         )  # fmt: skip
         print(child.stdout.strip())
+        start = time.perf_counter()
+        report = verify(big)
+        took = time.perf_counter() - start
+        size = sum(p.stat().st_size for p in big.iterdir())
+        assert report["ok"], report["problems"]
+        print(f"verify of those {report['records']} grasps: {took:.1f} s, "
+              f"{size / 2**20 / took:.0f} MiB/s over {size / 2**20:.0f} MiB")  # fmt: skip
     finally:
         shutil.rmtree(work, ignore_errors=True)
 

@@ -15,7 +15,9 @@ grasp's signature and its DTW distances to the five theoretical patterns, and re
   written to tactile_bullet/data/identification.json for ``patterns.identify``.
 
 Usage: python tools/invariance.py [--workers 2] [--cache /tmp/invariance.json] [--quick]
-(about 1 min on 2 cores; --cache reuses simulated angles between runs).
+[--correction none|position|dynamic] (about 1 min on 2 cores; --cache reuses simulated angles
+between runs). ``--correction`` identifies each grasp on its signature with the fingers that
+detector (thesis ch. 3) finds out of contact dropped; it prints only, and writes nothing.
 """
 
 from __future__ import annotations
@@ -65,6 +67,7 @@ def grasp_job(job: tuple) -> dict:
     """One grasp (run in a worker): its final FCI angles or why it failed."""
     from tactile_bullet.grasp import simulate_grasp
     from tactile_bullet.records import Pose
+    from tactile_bullet.temporal import DETECTORS, detect
 
     name, t, params, offset = job
     out = {"shape": name, "t": t, "params": params, "offset": list(offset)}
@@ -74,6 +77,7 @@ def grasp_job(job: tuple) -> dict:
         out["error"] = str(exc)
         return out
     out["angles"] = rec.fci_angles().tolist()
+    out["keep"] = {m: detect(rec, m).contact_mask.tolist() for m in DETECTORS}
     out["flags"] = list(rec.flags)
     out["fingers"] = list(rec.fingers_in_contact)
     return out
@@ -98,6 +102,8 @@ def simulate(todo: list[tuple], workers: int, cache: Path | None) -> list[dict]:
     done: dict[str, dict] = {}
     if cache is not None and cache.is_file():
         for row in json.loads(cache.read_text()):
+            if "angles" in row and "keep" not in row:  # cached before the detectors ran
+                continue
             done[json.dumps([row["shape"], row["t"], row["offset"]])] = row
     missing = [j for j in todo if key((j[0], j[1], j[2], list(j[3]))) not in done]
     if missing:
@@ -113,7 +119,18 @@ def simulate(todo: list[tuple], workers: int, cache: Path | None) -> list[dict]:
     return rows
 
 
-def analyse(rows: list[dict]) -> dict:
+def signature_and_library(row: dict, correction: str, lib):
+    """The row's signature and the patterns to compare it with, after ``correction``."""
+    from tactile_bullet.temporal import corrected_library, corrected_signature
+
+    angles = np.array(row["angles"])
+    keep = np.asarray(row["keep"][correction] if correction != "none" else [True] * 4)
+    if correction == "none" or keep.all() or keep.sum() < 2:
+        return signature_from_angles(angles), lib
+    return corrected_signature(angles, keep), corrected_library(keep)
+
+
+def analyse(rows: list[dict], correction: str = "none") -> dict:
     """Distances, nearest patterns and both thresholds from the simulated grasps.
 
     Integral rule: for each line, the threshold is the mean of the hyperboloid's and the
@@ -122,10 +139,10 @@ def analyse(rows: list[dict]) -> dict:
     """
     lib = size_matched_library()
     graspable = [r for r in rows if "angles" in r]
-    sigs = {}
+    sigs, libs = {}, {}
     for k, row in enumerate(graspable):
-        sig = signature_from_angles(np.array(row["angles"]))
-        plain = identify(sig, lib, Thresholds(integral_line="none"))
+        sig, libs[k] = signature_and_library(row, correction, lib)
+        plain = identify(sig, libs[k], Thresholds(integral_line="none"))
         row["distances"] = plain.distances
         row["nearest"] = plain.nearest
         sigs[k] = sig
@@ -143,12 +160,12 @@ def analyse(rows: list[dict]) -> dict:
             ]
             cut = float(np.mean(means))
         th = Thresholds(integral=cut, integral_line=line)
-        right = sum(identify(sigs[k], lib, th).name == graspable[k]["shape"] for k in pair)
+        right = sum(identify(sigs[k], libs[k], th).name == graspable[k]["shape"] for k in pair)
         options[line] = (right, cut)
     line = max(options, key=lambda n: options[n][0])  # first best: upper, lower, then none
     th = Thresholds(integral=options[line][1], integral_line=line)
     for k, row in enumerate(graspable):
-        row["identified"] = identify(sigs[k], lib, th).name
+        row["identified"] = identify(sigs[k], libs[k], th).name
     correct = [
         r["distances"][r["shape"]]
         for r in graspable
@@ -301,10 +318,14 @@ def main() -> None:
     ap.add_argument("--cache", type=Path, default=None, help="JSON of simulated angles to reuse")
     ap.add_argument("--quick", action="store_true", help="3 sizes, centred only (smoke run)")
     ap.add_argument("--no-write", action="store_true", help="print only")
+    ap.add_argument(
+        "--correction", choices=("none", "position", "dynamic"), default="none",
+        help="drop the fingers this detector finds out of contact (prints only)",
+    )  # fmt: skip
     args = ap.parse_args()
 
     rows = simulate(jobs(args.quick), args.workers, args.cache)
-    thresholds = analyse(rows)
+    thresholds = analyse(rows, args.correction)
     thesis_rows = [r for r in rows if r["shape"] in THESIS_SHAPES]
     shapes = ranges(thesis_rows)
     inside = [
@@ -339,7 +360,10 @@ def main() -> None:
         "modified_identified": confusion([r for r in rows if r["shape"] in MODIFIED]),
     }
     print(markdown(report))
-    if args.no_write:
+    if args.correction != "none":
+        dropped = sum(not all(r["keep"][args.correction]) for r in thesis_rows if "keep" in r)
+        print(f"correction {args.correction}: fingers dropped in {dropped} of {n} grasps")
+    if args.no_write or args.correction != "none":
         return
     (ROOT / "docs" / "img").mkdir(parents=True, exist_ok=True)
     (ROOT / "docs" / "signature_invariance.json").write_text(

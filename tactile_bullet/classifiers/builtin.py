@@ -1,6 +1,6 @@
-"""Built-in plugin: registers ``svm``, ``knn``, ``som``, ``dtw-template`` and, when its module
-is present, ``neural-forest``. Factories import their estimator on first use, so loading the
-registry does not import scikit-learn."""
+"""Built-in plugin: registers ``svm``, ``knn``, ``som``, ``dtw-template``, ``tcn`` (on the
+``time-series`` descriptor) and, when its module is present, ``neural-forest``. Factories
+import their estimator on first use, so loading the registry does not import scikit-learn."""
 
 from __future__ import annotations
 
@@ -39,11 +39,18 @@ def neural_forest(**params):
     return NeuralForestClassifier(**params)
 
 
+def tcn(**params):
+    from .tcn import TCNClassifier
+
+    return TCNClassifier(**params)
+
+
 @hookimpl
 def register_classifiers(register):
     register("svm", svm)
     register("knn", knn)
     register("som", som)
     register("dtw-template", dtw_template)
+    register("tcn", tcn)
     if importlib.util.find_spec("tactile_bullet.neural_forest") is not None:
         register("neural-forest", neural_forest)

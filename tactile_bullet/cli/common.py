@@ -3,11 +3,12 @@ progress bars, output paths."""
 
 from __future__ import annotations
 
+import argparse
 import json
 import math
 import os
 import sys
-from collections.abc import Iterable, Sequence
+from collections.abc import Iterable, Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -71,22 +72,138 @@ def estimator_params(items: Sequence[str] | None, what: str = "--param") -> dict
     return {k: convert_value(v) for k, v in parse_key_values(items, what).items()}
 
 
-def writable_file(path: str | os.PathLike, what: str = "output") -> Path:
-    """Check up front that ``path`` can be written, so long work is not lost at the end."""
+def writable_file(path: str | os.PathLike, what: str = "output", force: bool = False) -> Path:
+    """Check up front that ``path`` can be written, so long work is not lost at the end; an
+    existing file is refused unless ``force`` (nothing on disk is overwritten unasked)."""
     path = Path(path)
     parent = path.parent if str(path.parent) else Path(".")
     if path.is_dir():
         raise UsageError(f"{what} path {path} is a directory")
     if not parent.is_dir():
         raise UsageError(f"{what} directory {parent} does not exist")
-    if not os.access(parent, os.W_OK) or (path.exists() and not os.access(path, os.W_OK)):
+    if path.exists() and not force:
+        raise UsageError(f"{what} {path} already exists; add --force to overwrite it")
+    if path.exists() and not os.access(path, os.W_OK):
         raise UsageError(f"{what} path {path} is not writable")
+    from ..files import probe_folder
+
+    probe_folder(parent, f"{what} directory")
     return path
+
+
+def add_force_flag(parser, what: str) -> None:
+    """``--force``: the one way to let a command replace files that already exist."""
+    parser.add_argument(
+        "--force", action="store_true", help=f"overwrite existing {what} (refused otherwise)"
+    )
+
+
+def output_files(paths: Mapping[str, str | None], force: bool) -> dict[str, Path]:
+    """Check every output file of a command before any work: writable, not already there
+    (unless ``force``), and no two flags naming the same file (the second would silently
+    replace the first). ``paths`` maps a flag name (without --) to its value or None."""
+    out: dict[str, Path] = {}
+    for flag, value in paths.items():
+        if not value:
+            continue
+        path = writable_file(value, f"--{flag}", force)
+        for other, seen in out.items():
+            if os.path.abspath(seen) == os.path.abspath(path):
+                raise UsageError(f"--{other} and --{flag} name the same file {path}")
+        out[flag] = path
+    return out
+
+
+def image_file(path: Path, what: str, backend: str) -> Path:
+    """Refuse, before simulating, an image name whose format the writer cannot produce
+    (``backend``: "cv2" for snapshots, "matplotlib" for plots)."""
+    suffix = path.suffix.lower().lstrip(".")
+    if backend == "cv2":
+        import cv2
+
+        ok = bool(suffix) and bool(cv2.haveImageWriter(f"x.{suffix}"))
+        formats = "png, jpg, bmp, tiff, webp"
+    else:
+        from matplotlib.figure import Figure
+
+        supported = Figure().canvas.get_supported_filetypes()
+        ok = suffix in supported
+        formats = ", ".join(sorted(supported))
+    if not ok:
+        raise UsageError(
+            f"{what} {path}: cannot write a {suffix or 'suffix-less'} image (use one of {formats})"
+        )
+    return path
+
+
+def parse_offset(text: str, what: str = "--offset") -> tuple[float, float, float]:
+    """'x,y,z' metres, each within the records' MAX_OFFSET_M."""
+    from ..records import MAX_OFFSET_M
+
+    offset = parse_vector(text, 3, what)
+    if any(abs(v) > MAX_OFFSET_M for v in offset):
+        raise UsageError(f"{what} {text} is out of range: each coordinate within "
+                         f"+-{MAX_OFFSET_M:g} m")  # fmt: skip
+    return offset  # type: ignore[return-value]
+
+
+def parse_rotation(text: str, what: str = "--rotation") -> float:
+    """Degrees -> radians, within the records' MAX_ROTATION_DEG."""
+    from ..records import MAX_ROTATION_DEG
+
+    degrees = parse_number(text, what)
+    if abs(degrees) > MAX_ROTATION_DEG:
+        raise UsageError(
+            f"{what} {text} is out of range [-{MAX_ROTATION_DEG:g}, {MAX_ROTATION_DEG:g}] degrees"
+        )
+    return math.radians(degrees)
+
+
+MAX_SEED = 2**32 - 1
+
+
+def seed_number(text: str) -> int:
+    """argparse type of every --seed: numpy seeds are integers in [0, 2**32)."""
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"must be an integer, got {text!r}") from None
+    if not 0 <= value <= MAX_SEED:
+        raise argparse.ArgumentTypeError(f"must be from 0 to {MAX_SEED}, got {value}")
+    return value
+
+
+def count(lo: int, hi: int | None = None):
+    """argparse type: an integer in [lo, hi] (``hi`` None: no upper bound)."""
+
+    def parse(text: str) -> int:
+        try:
+            value = int(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"must be an integer, got {text!r}") from None
+        if value < lo or (hi is not None and value > hi):
+            bound = f"at least {lo}" if hi is None else f"from {lo} to {hi}"
+            raise argparse.ArgumentTypeError(f"must be {bound}, got {value}")
+        return value
+
+    parse.__name__ = "count"
+    return parse
+
+
+MAX_WORKERS = 256
+"""More local processes than this is a typo, not a machine: each one holds a PyBullet copy."""
 
 
 def show_progress(json_mode: bool) -> bool:
     """Progress bars only for a person watching: a TTY on stderr and no --json."""
     return not json_mode and sys.stderr.isatty()
+
+
+def log_lines(json_mode: bool) -> bool:
+    """Plain progress lines on stderr: for a person at a terminal (no --json), and wherever
+    stderr is not a terminal (a log file, CI), so long work is never silent for minutes.
+    Only --json at a terminal stays quiet (docs/json.md)."""
+    return not json_mode or not sys.stderr.isatty()
 
 
 def progress(iterable: Iterable, total: int | None, desc: str, enabled: bool) -> Iterable:

@@ -6,7 +6,8 @@ import argparse
 import sys
 
 from ..errors import UsageError
-from .common import emit_json, show_progress
+from .common import emit_json, log_lines, seed_number
+from .data_args import add_allow_partial, read_data, report_skipped
 
 
 def add_parser(sub) -> None:
@@ -18,6 +19,7 @@ def add_parser(sub) -> None:
     )
     parser.add_argument("--data", required=True, metavar="DIR", help="training dataset")
     parser.add_argument("--test", metavar="DIR", help="test dataset (default: split --data)")
+    add_allow_partial(parser)
     parser.add_argument(
         "--descriptor", metavar="A,B", help="descriptors to compare (default: all installed)"
     )
@@ -25,7 +27,7 @@ def add_parser(sub) -> None:
         "--classifier", metavar="X,Y", help="classifiers to compare (default: all installed)"
     )
     parser.add_argument("--test-fraction", type=float, default=0.3, help="share held out")
-    parser.add_argument("--seed", type=int, default=0, help="seed of the split")
+    parser.add_argument("--seed", type=seed_number, default=0, help="seed of the split")
     parser.add_argument("--json", action="store_true", help="print one JSON document")
     parser.set_defaults(run=run)
 
@@ -42,22 +44,24 @@ def name_list(text: str | None, what: str, default) -> list[str]:
 
 def run(args: argparse.Namespace) -> int:
     from ..plugins import classifier_names, descriptor_names
-    from ..workflow import compare, records_from
+    from ..workflow import compare
 
     descriptors = name_list(args.descriptor, "--descriptor", descriptor_names)
     classifiers = name_list(args.classifier, "--classifier", classifier_names)
-    train_records = records_from(args.data)
-    test_records = records_from(args.test) if args.test else None
-    verbose = show_progress(args.json)
+    loaded = [read_data(args.data, args)] + ([read_data(args.test, args)] if args.test else [])
+    train_records = loaded[0].records
+    test_records = loaded[1].records if args.test else None
+    verbose = log_lines(args.json)
 
     def report(row: dict) -> None:
         if verbose:
-            print(f"  done {row['descriptor']} + {row['classifier']}", file=sys.stderr)
+            print(f"  done {row['descriptor']} + {row['classifier']}", file=sys.stderr, flush=True)
 
     rows = compare(
         train_records, test_records, descriptors, classifiers,
         seed=args.seed, test_fraction=args.test_fraction, on_pair=report,
     )  # fmt: skip
+    report_skipped(loaded, args, rows)
     if args.json:
         emit_json(rows)
     else:

@@ -6,7 +6,15 @@ import argparse
 import os
 import sys
 
-from .common import emit_json, show_progress
+from .common import (
+    MAX_WORKERS,
+    add_force_flag,
+    count,
+    emit_json,
+    log_lines,
+    seed_number,
+    show_progress,
+)
 
 QUICK = {"train_per_shape": 4, "test_per_shape": 2}
 """A smoke-sized demo: seconds instead of minutes, for tests and a first look."""
@@ -24,29 +32,33 @@ def add_parser(sub) -> None:
         "--out", default="tactile-bullet-demo", metavar="DIR",
         help="output folder (default: ./tactile-bullet-demo)",
     )  # fmt: skip
-    parser.add_argument("--seed", type=int, default=0, help="seed of sizes and offsets")
+    parser.add_argument("--seed", type=seed_number, default=0, help="seed of sizes and offsets")
     parser.add_argument(
-        "--workers", type=int, default=min(2, os.cpu_count() or 1), help="simulation processes"
-    )
+        "--workers", type=count(1, MAX_WORKERS), default=min(2, os.cpu_count() or 1),
+        help="simulation processes",
+    )  # fmt: skip
+    add_force_flag(parser, "output of an earlier demo in --out")
     parser.add_argument("--quick", action="store_true", help="a tiny run (a few grasps per shape)")
     parser.add_argument("--json", action="store_true", help="print one JSON document")
     parser.set_defaults(run=run)
 
 
 def run(args: argparse.Namespace) -> int:
-    from ..errors import UsageError
     from ..workflow import demo, demo_text
 
-    if args.workers < 1:
-        raise UsageError(f"--workers must be at least 1, got {args.workers}")
     show = show_progress(args.json)
     sizes = QUICK if args.quick else {}
 
-    def log(message: str) -> None:
-        if show:
-            print(message, file=sys.stderr)
+    verbose = log_lines(args.json)
 
-    doc = demo(args.out, seed=args.seed, workers=args.workers, show=show, log=log, **sizes)
+    def log(message: str) -> None:
+        if verbose:
+            print(message, file=sys.stderr, flush=True)
+
+    doc = demo(
+        args.out, seed=args.seed, workers=args.workers, show=show, log=log, force=args.force,
+        **sizes,
+    )  # fmt: skip
     if args.json:
         emit_json(doc)
     else:

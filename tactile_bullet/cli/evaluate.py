@@ -3,8 +3,10 @@
 from __future__ import annotations
 
 import argparse
+from pathlib import Path
 
-from .common import emit_json
+from .common import add_force_flag, emit_json
+from .data_args import add_allow_partial, read_data, report_skipped
 
 
 def add_parser(sub) -> None:
@@ -17,21 +19,28 @@ def add_parser(sub) -> None:
     )
     parser.add_argument("--model", required=True, help="model file written by `train`")
     parser.add_argument("--data", required=True, metavar="DIR", help="dataset folder or .npz")
+    add_allow_partial(parser)
     parser.add_argument(
         "--report", metavar="DIR", help="write report.json and PNG figures into this folder"
     )
+    add_force_flag(parser, "report files")
     parser.add_argument("--json", action="store_true", help="print one JSON document")
     parser.set_defaults(run=run)
 
 
 def run(args: argparse.Namespace) -> int:
+    from ..files import existing_outputs
     from ..models import load_model
-    from ..reports import report_dir, summary_text, write_evaluation_report
-    from ..workflow import evaluate, records_from
+    from ..reports import REPORT_FILES, report_dir, summary_text, write_evaluation_report
+    from ..workflow import evaluate
 
+    if args.report:
+        existing_outputs(Path(args.report), REPORT_FILES, "--report folder", args.force)
     model = load_model(args.model)
     report = report_dir(args.report) if args.report else None
-    doc = evaluate(model, records_from(args.data))
+    loaded = read_data(args.data, args)
+    doc = evaluate(model, loaded.records)
+    report_skipped(loaded, args, doc)
     if report is not None:
         written = write_evaluation_report(doc, report)
         doc["report"] = str(report)

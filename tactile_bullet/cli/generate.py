@@ -3,9 +3,18 @@
 from __future__ import annotations
 
 import argparse
+import json
+import sys
+import threading
+import time
+from pathlib import Path
 
 from ..errors import UsageError
-from .common import emit_json, show_progress
+from .common import MAX_WORKERS, count, emit_json, seed_number, show_progress
+
+MAX_SHARD_SIZE = 4096
+"""A shard's records wait in memory until its block is whole: bounded, so a typo cannot
+hold a whole dataset in memory."""
 
 
 def add_parser(sub) -> None:
@@ -13,43 +22,103 @@ def add_parser(sub) -> None:
         "generate",
         help="simulate a sweep of grasps into a dataset (manifest + shards)",
         description="Simulate shapes x sizes x positions x rotations into a dataset directory. "
-        "Shards are written atomically; a killed run is finished with --resume.",
+        "Shards are written atomically; a killed run is finished with --resume. A sweep may "
+        "hold at most 1,000,000 grasps.",
     )
     source = parser.add_mutually_exclusive_group(required=True)
     source.add_argument(
-        "--preset", help="thesis, modified, sequential or smoke (a few grasps, seconds)"
+        "--preset", help="thesis, modified, sequential, temporal or smoke (a few grasps, seconds)"
     )
     source.add_argument("--config", metavar="FILE.toml", help="a sweep declared in TOML")
     parser.add_argument("--out", required=True, help="dataset directory (new or resumed)")
-    parser.add_argument("--workers", type=int, default=1, help="local worker processes")
+    parser.add_argument(
+        "--workers", type=count(0, MAX_WORKERS), default=1,
+        help="local worker processes (0: in this process)",
+    )  # fmt: skip
     parser.add_argument("--cluster", metavar="ADDRESS", help="Dask scheduler, e.g. tcp://h:8786")
     parser.add_argument("--resume", action="store_true", help="finish an interrupted run")
-    parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--seed", type=seed_number, default=0)
     parser.add_argument(
-        "--shard-size", type=int, default=None,
+        "--shard-size", type=count(1, MAX_SHARD_SIZE), default=None,
         help="grasps per shard (default 32; on --resume, the dataset's own)",
     )  # fmt: skip
     parser.add_argument("--json", action="store_true", help="print one JSON document")
     parser.set_defaults(run=run)
 
 
+class ProgressLines:
+    """Plain progress lines on stderr where there is no terminal for a bar (a log file, CI):
+    every ``interval`` seconds the dataset's manifest is read, and a line is printed when
+    more shards are done, so a long run is never silent for minutes."""
+
+    def __init__(self, out: Path, interval: float = 2.0) -> None:
+        self.out, self.interval = Path(out), interval
+        self.started = time.perf_counter()
+        self._stop = threading.Event()
+        self._thread = threading.Thread(target=self._run, daemon=True)
+        self._last: tuple[int, int] | None = None
+
+    def __enter__(self) -> ProgressLines:
+        self._thread.start()
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self._stop.set()
+        self._thread.join()
+        if exc[0] is None:
+            self._report()  # the last shards, written since the last look
+
+    def _state(self) -> tuple[int, int, int] | None:
+        try:
+            data = json.loads((self.out / "manifest.json").read_text())
+            shards = data["shards"]
+            done = sum(int(s["records"]) + int(s["failed"]) for s in shards)
+            return done, int(data["tasks"]), len(shards)
+        except (OSError, ValueError, KeyError, TypeError):
+            return None  # not written yet, or mid-replace on a filesystem without rename
+
+    def _report(self) -> None:
+        state = self._state()
+        if state is None or state[:2] == self._last:
+            return
+        self._last = state[:2]
+        done, total, shards = state
+        elapsed = time.perf_counter() - self.started
+        print(
+            f"generate: {done}/{total} grasps done ({shards} shard{'' if shards == 1 else 's'}) "
+            f"after {elapsed:.0f} s",
+            file=sys.stderr,
+            flush=True,
+        )
+
+    def _run(self) -> None:
+        first = self._state()
+        self._last = first[:2] if first else None
+        while not self._stop.wait(self.interval):
+            self._report()
+
+
 def run(args: argparse.Namespace) -> int:
+    import contextlib
+
     from ..dataset import generate
     from ..sweeps import Sweep, preset
 
     sweep = preset(args.preset) if args.preset else Sweep.from_toml(args.config)
     if args.cluster and args.workers != 1:
         raise UsageError("--workers applies to local runs; a cluster has its own workers")
-    doc = generate(
-        sweep,
-        args.out,
-        workers=args.workers,
-        cluster=args.cluster,
-        resume=args.resume,
-        seed=args.seed,
-        shard_size=args.shard_size,
-        progress=show_progress(args.json),
-    )
+    lines = ProgressLines(args.out) if not sys.stderr.isatty() else contextlib.nullcontext()
+    with lines:
+        doc = generate(
+            sweep,
+            args.out,
+            workers=args.workers,
+            cluster=args.cluster,
+            resume=args.resume,
+            seed=args.seed,
+            shard_size=args.shard_size,
+            progress=show_progress(args.json),
+        )
     if args.json:
         emit_json(doc)
     else:
@@ -57,4 +126,6 @@ def run(args: argparse.Namespace) -> int:
             f"{doc['records']} grasps in {doc['shards']} shards at {doc['out']} "
             f"({doc['failed']} failed) in {doc['wall_time_s']:.1f} s"
         )
+        for problem in doc["repaired"]:
+            print(f"simulated again: {problem['file']} ({problem['problem']})")
     return 0

@@ -7,11 +7,15 @@ import math
 
 from ..errors import UsageError
 from .common import (
+    add_force_flag,
     emit_json,
+    image_file,
+    output_files,
     parse_key_values,
     parse_number,
-    parse_vector,
-    writable_file,
+    parse_offset,
+    parse_rotation,
+    seed_number,
 )
 from .shape_info import add_mesh_options, mesh_block, mesh_shape, mesh_summary
 
@@ -46,10 +50,16 @@ def add_parser(sub) -> None:
         help="start each finger where its sweep comes within 5 mm of the object (1.2x faster, "
         "final angles within ~2.5 deg)",
     )  # fmt: skip
-    parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument(
+        "--early-stop", action="store_true",
+        help="stop closing a finger once the dynamic detector finds it out of contact "
+        "(fewer steps when a finger misses the object)",
+    )  # fmt: skip
+    parser.add_argument("--seed", type=seed_number, default=0)
     parser.add_argument("--out", help="write the GraspRecord to this .npz file")
     parser.add_argument("--snapshot", help="render the grasp to this PNG (CPU renderer)")
     parser.add_argument("--plot", help="draw FCI and signatures of the grasp to this PNG")
+    add_force_flag(parser, "--out, --snapshot and --plot files")
     parser.add_argument("--gui", action="store_true", help="show PyBullet's window")
     parser.add_argument("--json", action="store_true", help="print one JSON document")
     parser.set_defaults(run=run)
@@ -58,7 +68,7 @@ def add_parser(sub) -> None:
 def _controller(args):
     from ..records import ControllerSettings
 
-    overrides = {"mode": args.mode, "preshape": args.preshape}
+    overrides = {"mode": args.mode, "preshape": args.preshape, "early_stop": args.early_stop}
     for key, value in (("delta", args.delta), ("thres_t", args.thres), ("max_time", args.max_time)):
         if value is not None:
             overrides[key] = value
@@ -69,16 +79,13 @@ def run(args: argparse.Namespace) -> int:
     from ..records import Pose
 
     params = {k: parse_number(v, f"--param {k}") for k, v in parse_key_values(args.param).items()}
-    offset = parse_vector(args.offset, 3, "--offset")
-    rotation = math.radians(parse_number(args.rotation, "--rotation"))
-    if abs(rotation) > math.radians(90):
-        raise UsageError(f"--rotation {args.rotation} is out of range [-90, 90] degrees")
-    pose = Pose(offset, rotation)
+    offset = parse_offset(args.offset)
+    pose = Pose(offset, parse_rotation(args.rotation))
     controller = _controller(args)
-    outputs = {}
-    for flag in ("out", "snapshot", "plot"):
-        if getattr(args, flag):
-            outputs[flag] = writable_file(getattr(args, flag), f"--{flag}")
+    outputs = output_files({f: getattr(args, f) for f in ("out", "snapshot", "plot")}, args.force)
+    for flag in ("snapshot", "plot"):
+        if flag in outputs:
+            image_file(outputs[flag], f"--{flag}", "cv2" if flag == "snapshot" else "matplotlib")
 
     from ..grasp import resolve_shape, timed_grasp
 
@@ -114,6 +121,7 @@ def run(args: argparse.Namespace) -> int:
         "steps": record.steps,
         "flags": list(record.flags),
         "signature": signature,
+        "temporal": _temporal_block(record),
         "outputs": {k: str(v) for k, v in outputs.items()},
     }
     if (mesh := mesh_block(shape)) is not None:
@@ -128,11 +136,21 @@ def run(args: argparse.Namespace) -> int:
 
 
 def _signature_block(record) -> dict | None:
-    """The DESIGN `signature` block, or None where the grasp gives no signature."""
+    """The `signature` block (docs/json.md), or None where the grasp gives no signature."""
     from ..patterns import signature_summary
 
     try:
         return signature_summary(record)
+    except UsageError:
+        return None
+
+
+def _temporal_block(record) -> dict | None:
+    """Both non-contact detectors' verdicts (thesis ch. 3), None without a time series."""
+    from ..temporal import temporal_summary
+
+    try:
+        return temporal_summary(record)
     except UsageError:
         return None
 
@@ -156,10 +174,18 @@ def _print_summary(doc: dict) -> None:
     if doc["flags"]:
         print(f"flags: {', '.join(doc['flags'])}")
     sig = doc["signature"]
-    if sig:
+    if sig and sig.get("reason"):
+        print(f"signature: {sig['reason']}")
+    elif sig:
         est = sig.get("rotation_estimate_deg")
         est_text = "n/a" if est is None else f"{est:.1f} deg"
-        print(f"signature: alpha {sig['alpha_deg']:.1f} deg, rotation estimate {est_text}, "
-              f"nearest pattern {sig['nearest_pattern']}")  # fmt: skip
+        named = f"identified {sig['identified']}, nearest pattern {sig['nearest_pattern']}"
+        print(f"signature: alpha {sig['alpha_deg']:.1f} deg, rotation estimate {est_text}, {named}")
+    temporal = doc.get("temporal")
+    if temporal:
+        dyn = temporal["dynamic"]
+        off = ", ".join(dyn["non_contact"]) or "none"
+        print(f"fingers off the object (dynamic detector): {off}, all known at "
+              f"{dyn['decided_at_s']:.2f} s")  # fmt: skip
     for key, path in doc["outputs"].items():
         print(f"wrote {key}: {path}")

@@ -6,7 +6,15 @@ import argparse
 import math
 
 from ..errors import UsageError
-from .common import emit_json, parse_key_values, parse_number, parse_vector
+from .common import (
+    emit_json,
+    parse_key_values,
+    parse_number,
+    parse_offset,
+    parse_rotation,
+    seed_number,
+)
+from .import_ import add_recording_options, identify_recording
 from .shape_info import add_mesh_options, mesh_shape
 
 
@@ -21,6 +29,9 @@ def add_parser(sub) -> None:
     source = parser.add_mutually_exclusive_group(required=True)
     source.add_argument("--shape", help="simulate a grasp on this shape")
     source.add_argument("--record", metavar="REC.npz", help="a saved grasp record")
+    source.add_argument(
+        "--recording", metavar="FILE", help="a real hand's recording (bag, CSV, Parquet)"
+    )
     source.add_argument("--mesh", metavar="FILE", help="simulate a grasp on this mesh file")
     add_mesh_options(parser)
     parser.add_argument(
@@ -32,8 +43,9 @@ def add_parser(sub) -> None:
     parser.add_argument(
         "--rotation", default="0", metavar="DEG", help="object rotation about the palm normal"
     )
-    parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--seed", type=seed_number, default=0)
     parser.add_argument("--json", action="store_true", help="print one JSON document")
+    add_recording_options(parser)
     parser.set_defaults(run=run)
 
 
@@ -50,10 +62,7 @@ def _record(args: argparse.Namespace):
     from ..records import Pose
 
     params = {k: parse_number(v, f"--param {k}") for k, v in parse_key_values(args.param).items()}
-    rotation = math.radians(parse_number(args.rotation, "--rotation"))
-    if abs(rotation) > math.radians(90):
-        raise UsageError(f"--rotation {args.rotation} is out of range [-90, 90] degrees")
-    pose = Pose(parse_vector(args.offset, 3, "--offset"), rotation)
+    pose = Pose(parse_offset(args.offset), parse_rotation(args.rotation))
     return simulate_grasp(mesh_shape(args) or args.shape, params, pose, seed=args.seed)
 
 
@@ -61,6 +70,10 @@ def run(args: argparse.Namespace) -> int:
     from ..models import load_model
     from ..workflow import identify
 
+    if args.recording:
+        return identify_recording(args)
+    if args.calibration or args.marker or args.topic != "/joint_states" or args.gap != "0.5":
+        raise UsageError("--topic, --marker, --gap and --calibration read a --recording")
     model = load_model(args.model)
     record = _record(args)
     doc = identify(model, record)
@@ -77,6 +90,8 @@ def run(args: argparse.Namespace) -> int:
     }
     if args.json:
         emit_json(doc)
+    elif doc["shape"] is None:
+        print(f"{doc['reason']} (grasped: {record.shape})")
     else:
         print(f"identified: {doc['shape']} (grasped: {record.shape})")
         ranked = sorted(doc["probabilities"].items(), key=lambda kv: -kv[1])

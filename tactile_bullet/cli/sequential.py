@@ -5,6 +5,13 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
+from ..errors import UsageError
+from .common import add_force_flag, count, seed_number
+from .data_args import add_allow_partial
+
+MAX_SYNTHETIC_VALUES = 20_000_000
+"""Largest --synthetic data set (classes x per-class x features numbers, 160 MB of floats)."""
+
 
 def add_parser(sub) -> None:
     parser = sub.add_parser(
@@ -15,6 +22,7 @@ def add_parser(sub) -> None:
         "disturbance-matrix figures. Needs the torch extra.",
     )
     parser.add_argument("--data", type=Path, help="a dataset (generate --preset sequential)")
+    add_allow_partial(parser)
     parser.add_argument("--synthetic", action="store_true", help="make_classification data")
     parser.add_argument(
         "--descriptor", default="signature+contact-normals",
@@ -25,20 +33,77 @@ def add_parser(sub) -> None:
         help="descriptor parameter (repeatable), e.g. points=50",
     )  # fmt: skip
     parser.add_argument("--timing", action="store_true", help="print cost figures only")
-    parser.add_argument("--orders", type=int, default=10, help="random orders of the classes")
-    parser.add_argument("--n-updates", type=int, default=300, help="updates per new forest")
-    parser.add_argument("--recalibration", type=int, default=100, help="updates per old forest")
-    parser.add_argument("--memory", type=int, default=500, help="replay memory size")
-    parser.add_argument("--classes", type=int, default=7, help="--synthetic classes")
-    parser.add_argument("--per-class", type=int, default=300, help="--synthetic samples")
-    parser.add_argument("--features", type=int, default=40, help="--synthetic features")
-    parser.add_argument("--latency-samples", type=int, default=200)
-    parser.add_argument("--seed", type=int, default=0)
-    parser.add_argument("--out", type=Path, default=Path("sequential_experiment"))
+    parser.add_argument(
+        "--orders", type=count(1, 1000), default=10, help="random orders of the classes"
+    )
+    parser.add_argument(
+        "--n-updates", type=count(1, 100_000), default=300, help="updates per new forest"
+    )
+    parser.add_argument(
+        "--recalibration", type=count(0, 100_000), default=100, help="updates per old forest"
+    )
+    parser.add_argument(
+        "--memory", type=count(0, 1_000_000), default=500, help="replay memory size"
+    )
+    parser.add_argument("--classes", type=count(2, 1000), default=7, help="--synthetic classes")
+    parser.add_argument(
+        "--per-class", type=count(3, 1_000_000), default=300, help="--synthetic samples"
+    )
+    parser.add_argument(
+        "--features", type=count(2, 100_000), default=40, help="--synthetic features"
+    )
+    parser.add_argument("--latency-samples", type=count(1, 100_000), default=200)
+    parser.add_argument("--seed", type=seed_number, default=0)
+    parser.add_argument(
+        "--out", type=Path, default=Path("sequential_experiment"),
+        help="folder for the three figures (not with --timing)",
+    )  # fmt: skip
+    add_force_flag(parser, "figures in --out")
+    parser.add_argument("--json", action="store_true", help="print one JSON document")
     parser.set_defaults(run=run)
+
+
+def check_args(args: argparse.Namespace) -> None:
+    """Everything that can be refused before minutes of training, writing nothing: the data
+    source, the size of --synthetic data, the figures' folder (no earlier figures unasked)."""
+    from ..files import existing_outputs
+    from ..sequential_experiment import FIGURES
+
+    if args.synthetic and args.data is not None:
+        raise UsageError("give --data DIR or --synthetic, not both")
+    if not args.synthetic:
+        if args.data is None:
+            raise UsageError(
+                "give --data DIR (e.g. from `tactile-bullet generate --preset sequential`) or "
+                "--synthetic"
+            )
+        if not args.data.is_dir():
+            raise UsageError(f"--data {args.data} is not a dataset folder")
+        from ..plugins import get_descriptor
+        from .common import estimator_params
+
+        # a typo in the descriptor or its parameters, before the dataset is read
+        get_descriptor(
+            args.descriptor, **estimator_params(args.descriptor_param, "--descriptor-param")
+        )
+    if args.synthetic:
+        size = args.classes * args.per_class * args.features
+        if size > MAX_SYNTHETIC_VALUES:
+            raise UsageError(
+                f"--synthetic data of {args.classes} x {args.per_class} x {args.features} "
+                f"= {size:,} numbers is over the limit of {MAX_SYNTHETIC_VALUES:,}"
+            )
+    if args.timing:
+        return
+    out = args.out
+    if out.exists() and not out.is_dir():
+        raise UsageError(f"--out {out} exists and is not a directory")
+    existing_outputs(out, FIGURES, "--out folder", args.force)
+    # writability is probed (creating the folder) once the data has loaded, before training
 
 
 def run(args: argparse.Namespace) -> int:
     from ..sequential_experiment import run as experiment
 
+    check_args(args)
     return experiment(args)

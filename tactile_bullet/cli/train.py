@@ -4,7 +4,8 @@ from __future__ import annotations
 
 import argparse
 
-from .common import emit_json, estimator_params, writable_file
+from .common import add_force_flag, emit_json, estimator_params, writable_file
+from .data_args import add_allow_partial, read_data, report_skipped
 
 
 def add_parser(sub) -> None:
@@ -15,6 +16,7 @@ def add_parser(sub) -> None:
         "shape names and save both (names and parameters) as one model file.",
     )
     parser.add_argument("--data", required=True, metavar="DIR", help="dataset folder or .npz")
+    add_allow_partial(parser)
     parser.add_argument("--descriptor", default="signature", help="descriptor name (a+b joins)")
     parser.add_argument("--classifier", default="svm", help="classifier name")
     parser.add_argument(
@@ -25,6 +27,7 @@ def add_parser(sub) -> None:
         help="descriptor parameter (repeatable)",
     )  # fmt: skip
     parser.add_argument("--out", required=True, metavar="MODEL", help="model file to write")
+    add_force_flag(parser, "model file")
     parser.add_argument("--json", action="store_true", help="print one JSON document")
     parser.set_defaults(run=run)
 
@@ -33,18 +36,21 @@ def run(args: argparse.Namespace) -> int:
     import time
 
     from ..models import save_model
-    from ..workflow import describe_model, records_from, train
+    from ..workflow import describe_model, train
 
-    out = writable_file(args.out, "--out")
+    out = writable_file(args.out, "--out", args.force)
     params = estimator_params(args.param, "--param")
     descriptor_params = estimator_params(args.descriptor_param, "--descriptor-param")
-    records = records_from(args.data)
+    loaded = read_data(args.data, args)
+    records = loaded.records
     start = time.perf_counter()
     model = train(records, args.descriptor, args.classifier, params, descriptor_params)
     fit_time = time.perf_counter() - start
     model.info.update(
         {"data": str(args.data), "train_records": len(records), "fit_time_s": fit_time}
     )
+    if loaded.skipped_records:
+        model.info["skipped_records"] = loaded.skipped_records
     path = save_model(out, model)
     doc = {
         "model": str(path),
@@ -52,6 +58,7 @@ def run(args: argparse.Namespace) -> int:
         "train_records": len(records),
         "fit_time_s": fit_time,
     }
+    report_skipped(loaded, args, doc)
     if args.json:
         emit_json(doc)
     else:

@@ -1,0 +1,61 @@
+"""``tactile-bullet verify``: check a dataset (or record files) before trusting it."""
+
+from __future__ import annotations
+
+import argparse
+
+from .common import emit_json
+
+
+def add_parser(sub) -> None:
+    parser = sub.add_parser(
+        "verify",
+        help="check a dataset: manifest, every shard's checksum and record count",
+        description="Check a dataset folder: the manifest (format, fields, each block listed "
+        "once, counts that add up, shard names inside the folder) and every shard (present, "
+        "size, sha256, record count); or check that every record of a folder of .npz records "
+        "(or one record file) can be read. Exit status 0 when sound, 2 naming each problem.",
+    )
+    parser.add_argument("--data", required=True, metavar="DIR", help="dataset folder or .npz")
+    parser.add_argument("--json", action="store_true", help="print one JSON document")
+    parser.set_defaults(run=run)
+
+
+def run(args: argparse.Namespace) -> int:
+    import sys
+
+    from ..dataset import verify
+
+    doc = verify(args.data)
+    if args.json:
+        emit_json(doc)
+    else:
+        print(verify_text(doc), end="")
+    if not doc["ok"]:
+        n = len(doc["problems"])
+        print(
+            f"tactile-bullet verify: error: {args.data} has {n} problem{'s' * (n > 1)}",
+            file=sys.stderr,
+        )
+        return 2
+    return 0
+
+
+def verify_text(doc: dict) -> str:
+    """What ``verify`` prints: a summary line, then one line per problem."""
+    if doc["kind"] == "records":
+        n = doc["records"]
+        head = f"{doc['data']}: {n} readable grasp record{'s' * (n != 1)}"
+    elif "listed_records" in doc:
+        head = (
+            f"{doc['data']}: {doc['records']} of {doc['listed_records']} records readable, "
+            f"{doc['shards']} shards listed for {doc['tasks']} tasks "
+            f"({doc['failed']} tasks the simulator could not run)"
+        )
+    else:
+        head = f"{doc['data']}: the manifest cannot be read"
+    lines = [f"{head}: {'sound' if doc['ok'] else 'DAMAGED'}"]
+    for p in doc["problems"]:
+        lost = f" ({p['records']} records)" if p["records"] else ""
+        lines.append(f"  {p['file']}: {p['problem']}{lost}")
+    return "\n".join(lines) + "\n"

@@ -692,17 +692,23 @@ def record_from_samples(
     has_efforts: bool = True,
 ) -> GraspRecord:
     """One recorded grasp as a GraspRecord: time from its first sample, final configuration
-    its last sample, no contacts, pose and sizes unknown."""
+    its last sample, no contacts, pose and sizes unknown. The controller settings are the
+    simulator's defaults except ``sample_rate``, the recording's mean rate (a hand
+    publishing at 1 kHz gets a timestep short enough to allow it); nothing reads the rest."""
     time = np.asarray(time, float)
     duration = float(time[-1] - time[0]) if time.size else 0.0
     rate = (time.size - 1) / duration if time.size > 1 and duration > 0 else 60.0
+    default = ControllerSettings()
+    controller = ControllerSettings(
+        sample_rate=float(rate), timestep=min(default.timestep, 1.0 / float(rate))
+    )
     flags = () if has_efforts else ("no_efforts",)
     angles = np.array(angles, float)
     return GraspRecord(
         shape=shape or UNKNOWN_SHAPE,
         params={},
         pose=Pose(),
-        controller=ControllerSettings(sample_rate=float(rate), max_time=max(duration, 1e-3)),
+        controller=controller,
         seed=0,
         time=time - time[0],
         angles=angles,

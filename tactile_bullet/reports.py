@@ -146,8 +146,8 @@ def _bin_order(kind: str) -> list[str]:
     if kind == "size":
         return [*SIZE_BINS, "unknown"]
     if kind == "rotation":
-        return _edge_labels(ROTATION_EDGES_DEG, "deg")
-    return _edge_labels(POSITION_EDGES_MM, "mm")
+        return [*_edge_labels(ROTATION_EDGES_DEG, "deg"), "unknown"]
+    return [*_edge_labels(POSITION_EDGES_MM, "mm"), "unknown"]
 
 
 def accuracy_by(bins: Sequence[str], correct: Sequence[bool], kind: str) -> dict[str, dict]:
@@ -190,10 +190,18 @@ def evaluation_report(
     }
     if records is not None:
         sizes = [size_bin(size_fraction(r.shape, r.params)) for r in records]
-        positions = [position_bin(r.pose.offset) for r in records]
+        # a real hand's recording has no known pose: binned "unknown", not as centred
+        posed = [getattr(r, "source", "simulated") == "simulated" for r in records]
+        positions = [
+            position_bin(r.pose.offset) if k else "unknown"
+            for r, k in zip(records, posed, strict=True)
+        ]
         doc["by_size"] = accuracy_by(sizes, correct, "size")
         doc["by_position"] = accuracy_by(positions, correct, "position")
-        rotations = [rotation_bin(r.pose.rotation) for r in records]
+        rotations = [
+            rotation_bin(r.pose.rotation) if k else "unknown"
+            for r, k in zip(records, posed, strict=True)
+        ]
         doc["by_rotation"] = accuracy_by(rotations, correct, "rotation")
         doc["bins"] = dict(BIN_DOC)
     return doc

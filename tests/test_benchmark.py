@@ -28,7 +28,7 @@ def _run(capsys, *argv):
         (["--descriptor", "signatur"], "signatur"),
         (["--classifier", "svm,forest"], "forest"),
         (["--training", "noisy"], "unknown training 'noisy'"),
-        (["--workers", "0"], "--workers must be >= 1"),
+        (["--workers", "0"], "argument --workers: must be from 1"),
         (["--quick", "--scale", "full"], "--quick contradicts --scale full"),
     ],
 )

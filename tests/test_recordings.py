@@ -249,6 +249,16 @@ def test_bad_calibration_is_refused(doc, message):
 # --- records ------------------------------------------------------------------------------------
 
 
+def test_recordings_at_a_real_hands_rate_and_length_make_valid_records():
+    """A hand publishing at 1 kHz, a grasp held for two minutes: both beyond what the
+    simulator's settings allow, both a valid recorded record."""
+    time = np.arange(0.0, 120.0, 0.001)
+    angles = np.zeros((time.size, len(JOINT_NAMES)))
+    rec = record_from_samples(time, angles, angles)
+    assert rec.controller.sample_rate == pytest.approx(1000.0)
+    assert rec.time[-1] == pytest.approx(120.0, abs=0.01)
+
+
 def test_recorded_source_survives_a_dataset_and_old_records_stay_simulated(tmp_path, simulated):
     from tactile_bullet.dataset import load_dataset
     from tactile_bullet.recordings import write_dataset

@@ -49,6 +49,9 @@ def test_import_writes_a_dataset_that_evaluate_and_train_accept(tmp_path, capsys
     imported = _json(capsys, ["evaluate", "--model", model, "--data", str(tmp_path / "imp")])
     original = _json(capsys, ["evaluate", "--model", model, "--data", str(root / "test")])
     assert imported["confusion_matrix"] == original["confusion_matrix"]
+    n = len(files["test"])  # a recording's pose and sizes are unknown, not "centred"
+    assert imported["by_position"] == {"unknown": {"accuracy": imported["accuracy"], "support": n}}
+    assert list(imported["by_rotation"]) == ["unknown"] == list(imported["by_size"])
     out = _json(capsys, ["train", "--data", str(tmp_path / "imp"), "--out", str(tmp_path / "m")])
     assert sorted(out["classes"]) == sorted({r.shape for r in files["test"]})
 

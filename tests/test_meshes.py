@@ -159,6 +159,7 @@ def test_shape_info_json_and_plot(tmp_path, capsys):
     assert doc["watertight"] and doc["triangles"]["input"] == doc["triangles"]["analysis"]
     assert doc["pattern"]["nearest"] == "sphere"  # an egg is nearest the sphere's pattern
     assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    assert "--force" in run_error(capsys, ["shape-info", "--mesh", str(path), "--plot", str(png)])
 
 
 def test_large_mesh_is_simplified_to_the_budget(tmp_path):

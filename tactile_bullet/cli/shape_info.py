@@ -10,7 +10,7 @@ from __future__ import annotations
 import argparse
 
 from ..errors import UsageError
-from .common import emit_json, parse_number, writable_file
+from .common import add_force_flag, emit_json, parse_number, writable_file
 
 
 def add_mesh_options(parser: argparse.ArgumentParser, required: bool = False) -> None:
@@ -70,12 +70,13 @@ def add_parser(sub) -> None:
     )
     add_mesh_options(parser, required=True)
     parser.add_argument("--plot", metavar="PNG", help="draw r(x) and its pattern to this PNG")
+    add_force_flag(parser, "plot")
     parser.add_argument("--json", action="store_true", help="print one JSON document")
     parser.set_defaults(run=run)
 
 
 def run(args: argparse.Namespace) -> int:
-    plot = writable_file(args.plot, "--plot") if args.plot else None
+    plot = writable_file(args.plot, "--plot", args.force) if args.plot else None
     shape = mesh_shape(args)
     from ..meshes import describe
 

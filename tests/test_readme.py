@@ -26,6 +26,17 @@ SUBSTITUTIONS: tuple[tuple[str, str, str], ...] = (
     ("samples = 20", "samples = 1", "the held-out set: 100 grasps -> 5"),
     ("--preset temporal", "--preset smoke", "198 grasps with fingers off the object -> 4"),
     (
+        "python tools/make_objects.py --out objects",
+        f"python {README.parent / 'tools' / 'make_objects.py'} --only bottle,pear --out objects",
+        "run from the test's empty folder; 14 objects (252 + 84 grasps) -> 2 (36 + 12)",
+    ),
+    (
+        "tactile-bullet benchmark --quick",
+        "tactile-bullet benchmark --scale tiny --protocol in-distribution,sensor-noise "
+        "--descriptor signature,robust-joints --classifier svm",
+        "five protocols x every installed method on 200 grasps -> two, on the tiny sets",
+    ),
+    (
         "--classifier svm,som,neural-forest",
         "--classifier svm,som",
         "three neural-forest fits in compare; the sequential example still trains forests",

@@ -44,15 +44,8 @@ from typing import Any
 import numpy as np
 
 from .errors import UsageError
+from .mesh_formats import AXES, FORMATS, UNITS
 from .shapes import Shape
-
-FORMATS: tuple[str, ...] = ("stl", "obj", "ply", "glb", "gltf", "off")
-"""File types read (by extension)."""
-
-UNITS: dict[str, float] = {"m": 1.0, "cm": 0.01, "mm": 0.001}
-"""Length unit of the numbers in a file -> metres."""
-
-AXES: tuple[str, ...] = ("auto", "x", "y", "z")
 
 TRIANGLE_BUDGET = 20_000
 """Triangles kept for the analysis (r(x), axis, watertightness): a 200k-triangle object

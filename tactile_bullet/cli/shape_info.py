@@ -15,7 +15,7 @@ from .common import add_force_flag, emit_json, parse_number, writable_file
 
 def add_mesh_options(parser: argparse.ArgumentParser, required: bool = False) -> None:
     """--mesh FILE and the options that say how to read it (shared by grasp and identify)."""
-    from ..meshes import AXES, FORMATS, UNITS
+    from ..mesh_formats import AXES, FORMATS, UNITS
 
     if required:
         parser.add_argument(

@@ -194,7 +194,12 @@ def enhance(line, floor: float = FLAT_FLOOR) -> tuple[np.ndarray, float]:
 def signature_from_angles(angles, bits: int = 8, floor: float = FLAT_FLOOR) -> Signature:
     """Signature of final joint angles (3, 4): rows J3, J2, J1; columns ff, mf, rf, lf (rad)."""
     image = fci(angles, bits)
-    lines = raw_signature(image)
+    return signature_from_lines(image, raw_signature(image), floor)
+
+
+def signature_from_lines(image, lines, floor: float = FLAT_FLOOR) -> Signature:
+    """The enhanced Signature of raw (lower, upper) lines taken from the FCI ``image``; shared
+    by the four-finger signature and chapter 3's corrected one (fewer columns)."""
     (lower, a_lo), (upper, a_up) = (enhance(line, floor) for line in lines)
     return Signature(
         lower=lower,

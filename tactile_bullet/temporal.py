@@ -44,7 +44,15 @@ import numpy as np
 
 from .errors import UsageError
 from .hand import LONG_FINGERS
-from .signature import FCI_SHAPE, JOINT_FULL_SCALE
+from .signature import (
+    FCI_SHAPE,
+    FLAT_FLOOR,
+    JOINT_FULL_SCALE,
+    UPSCALE,
+    fci,
+    signature_from_angles,
+    signature_from_lines,
+)
 
 F_G = 60.0
 """Rate (Hz) at which rows of G are sampled: the simulator's record rate."""
@@ -444,15 +452,6 @@ def corrected_signature(angles, keep, bits: int = 8, floor: float | None = None)
     200 points, so a corrected signature compares with every pattern as an uncorrected one
     does. Fewer than two kept fingers leave no shape to correct with: the full signature."""
     from .descriptors import resample_line
-    from .signature import (
-        FLAT_FLOOR,
-        UPSCALE,
-        Signature,
-        bulge,
-        enhance,
-        fci,
-        signature_from_angles,
-    )
 
     floor = FLAT_FLOOR if floor is None else floor
     mask = np.asarray(keep, dtype=bool)
@@ -468,18 +467,7 @@ def corrected_signature(angles, keep, bits: int = 8, floor: float | None = None)
     big = cv2.resize(cols, (width, FCI_SHAPE[0] * UPSCALE), interpolation=cv2.INTER_CUBIC)
     points = FCI_SHAPE[1] * UPSCALE
     lines = [resample_line(big.min(axis=0), points), resample_line(big.max(axis=0), points)]
-    (lower, a_lo), (upper, a_up) = (enhance(line, floor) for line in lines)
-    return Signature(
-        lower=lower,
-        upper=upper,
-        alpha_lower=a_lo,
-        alpha_upper=a_up,
-        bulge_lower=bulge(lines[0]),
-        bulge_upper=bulge(lines[1]),
-        raw_lower=lines[0],
-        raw_upper=lines[1],
-        fci=image,
-    )
+    return signature_from_lines(image, lines, floor)
 
 
 def contact_mask(record, correction: str) -> np.ndarray:

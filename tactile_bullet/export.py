@@ -200,24 +200,9 @@ def _write_bag1(path, records, stamps, names, coupled, topic) -> int:
     from rosbags.typesys import Stores, get_typestore
 
     ts = get_typestore(Stores.ROS1_NOETIC)
-    Header, Time = ts.types["std_msgs/msg/Header"], ts.types["builtin_interfaces/msg/Time"]
-    JointState, String = ts.types["sensor_msgs/msg/JointState"], ts.types["std_msgs/msg/String"]
-    count = 0
     with Writer(path) as writer:
-        js = writer.add_connection(topic, JointState.__msgtype__, typestore=ts)
-        mk = writer.add_connection(MARKER_TOPIC, String.__msgtype__, typestore=ts)
-        empty = np.zeros(0)
-        for stamp, kind, payload in _messages(records, stamps, names, coupled):
-            if kind == "marker":
-                writer.write(mk, stamp, ts.serialize_ros1(String(data=payload), String.__msgtype__))
-                continue
-            head = Header(seq=count, stamp=Time(sec=stamp // 10**9, nanosec=stamp % 10**9),
-                          frame_id="")  # fmt: skip
-            msg = JointState(header=head, name=list(names), position=payload[0],
-                             velocity=empty, effort=payload[1])  # fmt: skip
-            writer.write(js, stamp, ts.serialize_ros1(msg, JointState.__msgtype__))
-            count += 1
-    return count
+        return _write_messages(writer, ts, ts.serialize_ros1, True, records, stamps, names,
+                               coupled, topic)  # fmt: skip
 
 
 def _write_bag2(path, records, stamps, names, coupled, topic, fmt) -> int:
@@ -226,21 +211,29 @@ def _write_bag2(path, records, stamps, names, coupled, topic, fmt) -> int:
     from rosbags.typesys import Stores, get_typestore
 
     ts = get_typestore(Stores.ROS2_HUMBLE)
+    storage = StoragePlugin.MCAP if fmt == "mcap" else StoragePlugin.SQLITE3
+    with Writer(path, version=9, storage_plugin=storage) as writer:
+        return _write_messages(writer, ts, ts.serialize_cdr, False, records, stamps, names,
+                               coupled, topic)  # fmt: skip
+
+
+def _write_messages(writer, ts, serialize, with_seq, records, stamps, names, coupled, topic):
+    """JointState messages and grasp markers into an open ROS 1 or ROS 2 bag writer (they
+    differ in the serializer and in ROS 1's header sequence number); the JointState count."""
     Header, Time = ts.types["std_msgs/msg/Header"], ts.types["builtin_interfaces/msg/Time"]
     JointState, String = ts.types["sensor_msgs/msg/JointState"], ts.types["std_msgs/msg/String"]
-    storage = StoragePlugin.MCAP if fmt == "mcap" else StoragePlugin.SQLITE3
+    js = writer.add_connection(topic, JointState.__msgtype__, typestore=ts)
+    mk = writer.add_connection(MARKER_TOPIC, String.__msgtype__, typestore=ts)
+    empty = np.zeros(0)
     count = 0
-    with Writer(path, version=9, storage_plugin=storage) as writer:
-        js = writer.add_connection(topic, JointState.__msgtype__, typestore=ts)
-        mk = writer.add_connection(MARKER_TOPIC, String.__msgtype__, typestore=ts)
-        empty = np.zeros(0)
-        for stamp, kind, payload in _messages(records, stamps, names, coupled):
-            if kind == "marker":
-                writer.write(mk, stamp, ts.serialize_cdr(String(data=payload), String.__msgtype__))
-                continue
-            head = Header(stamp=Time(sec=stamp // 10**9, nanosec=stamp % 10**9), frame_id="")
-            msg = JointState(header=head, name=list(names), position=payload[0],
-                             velocity=empty, effort=payload[1])  # fmt: skip
-            writer.write(js, stamp, ts.serialize_cdr(msg, JointState.__msgtype__))
-            count += 1
+    for stamp, kind, payload in _messages(records, stamps, names, coupled):
+        if kind == "marker":
+            writer.write(mk, stamp, serialize(String(data=payload), String.__msgtype__))
+            continue
+        seq = {"seq": count} if with_seq else {}
+        head = Header(**seq, stamp=Time(sec=stamp // 10**9, nanosec=stamp % 10**9), frame_id="")
+        msg = JointState(header=head, name=list(names), position=payload[0],
+                         velocity=empty, effort=payload[1])  # fmt: skip
+        writer.write(js, stamp, serialize(msg, JointState.__msgtype__))
+        count += 1
     return count

@@ -24,6 +24,7 @@ from pathlib import Path
 import numpy as np
 
 from .errors import UsageError
+from .files import read_toml
 
 ENTRY_KEYS = ("offset", "offset_deg", "scale")
 MAX_OFFSET = math.pi / 2
@@ -107,15 +108,6 @@ def _number(value, what: str) -> float:
 
 def load_calibration(path: str | Path) -> Calibration:
     """Read a calibration TOML file (see the module docstring)."""
-    import tomllib
-
     path = Path(path)
-    try:
-        doc = tomllib.loads(path.read_text())
-    except FileNotFoundError:
-        raise UsageError(f"calibration file {path} does not exist") from None
-    except (OSError, UnicodeDecodeError) as exc:
-        raise UsageError(f"cannot read calibration file {path}: {exc}") from None
-    except tomllib.TOMLDecodeError as exc:
-        raise UsageError(f"{path} is not valid TOML ({exc})") from None
+    doc = read_toml(path, "calibration file")
     return calibration_from_dict(doc, str(path))

@@ -30,7 +30,6 @@ same pose keys as a shape; their grasps are labelled with the object names (``me
 from __future__ import annotations
 
 import math
-import tomllib
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field, fields
 from pathlib import Path
@@ -39,6 +38,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from .errors import UsageError
+from .files import read_toml
 from .records import (
     MAX_OFFSET_M,
     MAX_ROTATION_DEG,
@@ -170,16 +170,7 @@ class Sweep:
     @classmethod
     def from_toml(cls, path: str | Path) -> Sweep:
         path = Path(path)
-        try:
-            data = tomllib.loads(path.read_text(encoding="utf-8"))
-        except FileNotFoundError:
-            raise UsageError(f"config file {path} does not exist") from None
-        except OSError as exc:
-            raise UsageError(f"cannot read config {path}: {exc.strerror or exc}") from None
-        except UnicodeDecodeError:
-            raise UsageError(f"{path} is not a UTF-8 text file (TOML must be UTF-8)") from None
-        except tomllib.TOMLDecodeError as exc:
-            raise UsageError(f"{path} is not valid TOML: {exc}") from None
+        data = read_toml(path, "config file")
         return cls.from_dict(data, source=str(path), base=path.parent)
 
     def to_dict(self) -> dict[str, Any]:

@@ -54,7 +54,7 @@ def model(synthetic_split):
 
 
 @pytest.fixture(scope="session")
-def test_records(synthetic_split):
+def held_out_records(synthetic_split):
     return _with_efforts(synthetic_split[1][::2])
 
 
@@ -117,8 +117,8 @@ def test_unknown_missing_and_mixed_names_are_named_in_the_error():
 
 
 @pytest.mark.parametrize("fmt", BAG_FORMATS)
-def test_exported_grasps_read_back_equal(tmp_path, simulated, test_records, fmt):
-    records = [*simulated, *test_records[:3]]
+def test_exported_grasps_read_back_equal(tmp_path, simulated, held_out_records, fmt):
+    records = [*simulated, *held_out_records[:3]]
     out = _out(tmp_path, fmt)
     doc = export(records, out, fmt)
     assert doc["messages"] == sum(r.time.size for r in records)
@@ -186,8 +186,10 @@ def test_coupled_bag_keeps_both_signature_lines(tmp_path, simulated):
 
 
 @pytest.mark.parametrize("fmt", ("bag", "mcap", "csv"))
-def test_reimported_grasps_classify_as_the_originals(tmp_path, model, simulated, test_records, fmt):
-    records = [*simulated, *test_records]
+def test_reimported_grasps_classify_as_the_originals(
+    tmp_path, model, simulated, held_out_records, fmt
+):
+    records = [*simulated, *held_out_records]
     out = _out(tmp_path, fmt)
     export(records, out, fmt)
     answers = identify_grasps(model, read_recording(out))
@@ -198,18 +200,18 @@ def test_reimported_grasps_classify_as_the_originals(tmp_path, model, simulated,
         assert a["probabilities"] == pytest.approx(expected, abs=1e-9)
 
 
-def test_j0_only_recordings_classify_as_their_split(tmp_path, model, test_records):
+def test_j0_only_recordings_classify_as_their_split(tmp_path, model, held_out_records):
     """A J0-only hand loses how J0 was shared between J2 and J1: the reader's answer is the
     model's answer on the original grasp with J0 split by the documented rule."""
     from tactile_bullet.export import published_values
 
     out = tmp_path / "j0.csv"
-    export(test_records, out, "csv", coupled=True)
+    export(held_out_records, out, "csv", coupled=True)
     answers = identify_grasps(model, read_recording(out))
     jmap = JointMap(published_names(coupled=True))
     split = [
         record_from_samples(r.time, jmap.positions(published_values(r, True)[0]), r.efforts)
-        for r in test_records
+        for r in held_out_records
     ]
     assert [a["shape"] for a in answers] == list(workflow.predict(model, split))
 
@@ -286,15 +288,15 @@ def _replay(ident, record, t0=0.0, hold_s=0.3, names=None):
     return mid, end + hold_s
 
 
-def test_streaming_names_the_shape_once_the_grasp_is_held(model, test_records):
+def test_streaming_names_the_shape_once_the_grasp_is_held(model, held_out_records):
     from tactile_bullet import Identifier
 
     ident = Identifier.load(model)
     assert ident.result() == {"shape": None, "probabilities": {}, "rotation_deg": None,
                               "grasp_over": False, "samples": 0}  # fmt: skip
     t0 = 0.0
-    want = workflow.predict(model, test_records)
-    for rec, expected in zip(test_records, want, strict=True):
+    want = workflow.predict(model, held_out_records)
+    for rec, expected in zip(held_out_records, want, strict=True):
         mid, t0 = _replay(ident, rec, t0)
         assert mid["shape"] is None and not mid["grasp_over"]
         assert set(mid["probabilities"]) == set(model.classes)
@@ -305,11 +307,11 @@ def test_streaming_names_the_shape_once_the_grasp_is_held(model, test_records):
         t0 += 1.0  # silence before the next grasp
 
 
-def test_streaming_silence_ends_a_grasp_and_finish_ends_the_last(model, test_records):
+def test_streaming_silence_ends_a_grasp_and_finish_ends_the_last(model, held_out_records):
     from tactile_bullet import Identifier
 
     ident = Identifier(model)
-    a, b = test_records[:2]
+    a, b = held_out_records[:2]
     names = list(published_names(coupled=False))
     for t, q in zip(a.time, a.angles, strict=True):
         ident.update(t, names, q)
@@ -324,11 +326,11 @@ def test_streaming_silence_ends_a_grasp_and_finish_ends_the_last(model, test_rec
     assert ident.result()["shape"] == workflow.predict(model, [b])[0]
 
 
-def test_streaming_keeps_one_sample_while_the_object_is_held(model, test_records):
+def test_streaming_keeps_one_sample_while_the_object_is_held(model, held_out_records):
     from tactile_bullet import Identifier
 
     ident = Identifier(model)
-    rec = test_records[0]
+    rec = held_out_records[0]
     _, _ = _replay(ident, rec, hold_s=0.3)
     kept = ident.result()["samples"]
     _replay(ident, dataclasses.replace(rec, time=rec.time[-1:], angles=rec.angles[-1:],

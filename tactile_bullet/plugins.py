@@ -447,7 +447,21 @@ def required_descriptor(classifier: str) -> str | None:
     return getattr(_fresh_estimator(classifier), "required_descriptor", None)
 
 
+def accepted_descriptors(classifier: str) -> tuple[str, ...] | None:
+    """Every descriptor a classifier can read, or None when it reads any feature matrix.
+
+    An estimator declares ``required_descriptor`` (its one layout) and may add
+    ``accepted_descriptors``: other descriptors with the same columns (``shape-fit`` reads
+    ``raw-joints`` and ``robust-joints``, whose columns are the same joints)."""
+    estimator = _fresh_estimator(classifier)
+    needed = getattr(estimator, "required_descriptor", None)
+    if needed is None:
+        return None
+    more = tuple(getattr(estimator, "accepted_descriptors", ()) or ())
+    return tuple(dict.fromkeys((needed, *more)))
+
+
 def compatible(descriptor: str, classifier: str) -> bool:
     """Whether ``classifier`` can learn from ``descriptor``'s features."""
-    needed = required_descriptor(classifier)
-    return needed is None or needed == descriptor
+    accepted = accepted_descriptors(classifier)
+    return accepted is None or descriptor in accepted

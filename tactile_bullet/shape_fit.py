@@ -66,6 +66,9 @@ OFFSET_X = (-0.02, 0.02)
 OFFSET_Z = (-0.015, 0.015)
 """Range (m) searched for the object's offset along the fingers."""
 
+ROTATION = (-math.radians(30.0), math.radians(30.0))
+"""Range (rad) searched for the object's rotation about the palm normal (``Pose.rotation``)."""
+
 FEATURES = ("J3", "J0")
 """Per finger, what is fitted: the proximal angle and the coupled J0 = J1 + J2 (the split of
 J0 between J1 and J2 follows the tendon rule, not the shape)."""
@@ -79,6 +82,23 @@ there than anywhere else."""
 OFFSET_STEPS = (8, 6)
 """Grid values of the offset along O-O' and along the fingers (none at 0 or +-10 mm, the
 evaluation grid's offsets)."""
+
+ROTATION_PRIOR_DEG = 15.0
+"""Spread of the zero-mean Gaussian prior on the rotation, added to the score as
+(rotation / spread)**2 (the data term is a sum of squared sigmas too). Without it a cylinder
+at an outer offset is explained as well by a cone turned 20 deg: turning a cylinder moves each
+finger's section up or down the knuckle's tangent, as a cone's taper does, and eight angles
+cannot always tell the two apart. Most grasps are near square; a turn must earn its cost."""
+
+STARTS = 3
+"""Grid points per family the pattern search starts from, each the best of its grid rotation:
+with the rotation in the grid, the single best point often lies in another valley (a turned,
+larger object further out)."""
+
+ROTATION_STEPS = 5
+"""Grid values of the rotation: -30, -15, 0, 15, 30 deg. Unlike the sizes and offsets, the
+grid keeps 0: most grasps are square, and on a small object one grid step of rotation costs
+more than the search can walk back."""
 
 REFINE_ROUNDS = 3
 """Moves or halvings of the pattern search's step after the grid."""
@@ -149,55 +169,102 @@ _GROW = np.sqrt(np.clip(SEGMENT_PADS[0] ** 2 - _DU**2, 0.0, None))
 _SIDE = np.abs(_DU) / SEGMENT_PADS[0]
 
 
-def _reach(radius_fn, t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Batched ``patterns.reach_profile`` for the 9 mm capsules (t: (..., 4)), and how far off
-    the finger's plane the contact lies as a fraction of the pad (0 in the plane, 1 at the
-    capsule's side)."""
+_HEIGHTS = np.linspace(-0.04, 0.04, 9)
+"""Heights (m) in the finger plane, from where the turned axis crosses it, at which a turned
+object's section is measured (:func:`_reach`)."""
+
+
+def _reach(radius_fn, along: np.ndarray, beta: np.ndarray) -> tuple[np.ndarray, ...]:
+    """What the 9 mm capsules of each finger meet, batched (``patterns.reach_profile`` for a
+    turned object): reach (..., 4), how far off the finger's plane the contact lies as a
+    fraction of the pad (0 in the plane, 1 at the capsule's side), and the height (m) of the
+    section's widest point above where the axis crosses the finger's plane.
+
+    ``along`` (..., 4): each finger plane's distance from the object's centre along O-O';
+    ``beta`` (..., 1): the rotation about the palm normal. The solid's points in the plane
+    x = along + du (du across the pad) at height s above the centre lie u = x cos(beta) -
+    s sin(beta) along its axis and w = x sin(beta) + s cos(beta) off it, so the section's
+    half-width toward the palm is sqrt(r(u)^2 - w^2). Its widest point (refined by a parabola
+    through the sampled heights) is taken as a circle's radius and centre: exact for a
+    cylinder and for a sphere at any rotation, and for any solid unturned. On a steep profile
+    (a torus near its ends) the widest point moves well away from the axis, the other way to
+    the axis' own tilt."""
+    cb, sb = np.cos(beta)[..., None, None], np.sin(beta)[..., None, None]
+    x = along[..., None, None] + _DU[:, None]
+    height = _HEIGHTS - along[..., None, None] * (sb / cb)
+    u, w = x * cb - height * sb, x * sb + height * cb
     with np.errstate(invalid="ignore"):
-        r = radius_fn(t[..., None] + _DU)
-    grown = np.where(r > 0, r + _GROW, 0.0)  # NaN (no such solid) counts as nothing there
-    best = grown.argmax(axis=-1)
-    return np.take_along_axis(grown, best[..., None], -1)[..., 0], _SIDE[best]
+        r = radius_fn(u)
+    half2 = np.where(r > 0, r * r - w * w, 0.0)  # NaN (no such solid) counts as nothing there
+    half = np.sqrt(np.clip(half2, 0.0, None))
+    grown = np.where(half > 0, half + _GROW[:, None], 0.0)
+    flat = grown.reshape(grown.shape[:-2] + (-1,))
+    best = flat.argmax(axis=-1)
+    i_du, i_h = np.divmod(best, len(_HEIGHTS))
+    row = np.take_along_axis(grown, i_du[..., None, None], -2)[..., 0, :]
+    peak = np.take_along_axis(row, i_h[..., None], -1)[..., 0]
+    inner = np.clip(i_h, 1, len(_HEIGHTS) - 2)
+    y0 = np.take_along_axis(row, (inner - 1)[..., None], -1)[..., 0]
+    y2 = np.take_along_axis(row, (inner + 1)[..., None], -1)[..., 0]
+    curve = y0 - 2.0 * peak + y2
+    ok = (inner == i_h) & (curve < 0) & (y0 > 0) & (y2 > 0)
+    shift = np.where(ok, 0.5 * (y0 - y2) / np.where(ok, curve, -1.0), 0.0)
+    reach = np.where(ok, peak - 0.25 * (y0 - y2) * shift, peak)
+    step = _HEIGHTS[1] - _HEIGHTS[0]
+    rise = np.take_along_axis(height[..., 0, :], i_h[..., None], -1)[..., 0] + shift * step
+    return reach, _SIDE[i_du], np.where(reach > 0, rise, 0.0)
+
+
+_CLEARANCE_U = np.linspace(-0.3, 0.3, 301)
+"""Where along the axis (m) the nominal depth samples the profile: ``scene.place_object``
+samples it every 0.5 mm; every 2 mm moves the depth by less than 0.3 mm on these profiles
+(their maxima lie at x = 0 or at a range end, both sampled)."""
 
 
 @cache
-def _clearance_u() -> tuple[np.ndarray, ...]:
-    from .scene import CLEARANCES
-
-    # scene.place_object samples the profile every 0.5 mm; every 2 mm moves the depth by less
-    # than 0.3 mm on these profiles (their maxima lie at x = 0 or at a range end, both sampled)
-    u = np.linspace(-0.3, 0.3, 301)
-    return tuple(u[(u >= lo) & (u <= hi)] for (lo, hi), _ in CLEARANCES)
-
-
-@cache
-def _scene_constants() -> tuple[tuple[float, ...], float, float]:
+def _scene_constants() -> tuple[tuple[tuple[float, float, float], ...], float, float]:
     from .scene import CLEARANCES, GRASP_Z, STANDOFF
 
-    return tuple(depth for _, depth in CLEARANCES), STANDOFF, GRASP_Z
+    return tuple((lo, hi, depth) for (lo, hi), depth in CLEARANCES), STANDOFF, GRASP_Z
 
 
-def nominal_centre(shape: Shape, params: Mapping[str, np.ndarray]) -> tuple[np.ndarray, float]:
-    """(y, z) of the object's axis at zero offset, as ``scene.place_object`` puts it (no
-    rotation): STANDOFF clear of the palm and the open thumb, deeper for a larger object."""
-    depths, standoff, grasp_z = _scene_constants()
-    sizes = {k: np.asarray(v, dtype=float)[..., None] for k, v in params.items()}
-    y0 = np.zeros(np.broadcast_shapes(*(v.shape[:-1] for v in sizes.values())))
-    for u, depth in zip(_clearance_u(), depths, strict=True):
-        with np.errstate(invalid="ignore"):
-            r = shape.radius(u, **sizes)
-        y0 = np.minimum(y0, -depth - standoff - np.where(r > 0, r, 0.0).max(axis=-1))
+def nominal_centre(
+    shape: Shape, params: Mapping[str, np.ndarray], rotation=0.0
+) -> tuple[np.ndarray, float]:
+    """(y, z) of the object's axis at zero offset, as ``scene.place_object`` puts it:
+    STANDOFF clear of the palm and the open thumb, deeper for a larger object. ``rotation``
+    (rad, broadcastable with the sizes) turns the axis about the palm normal, so the section
+    at u along it lies at x = u cos(rotation) and a clearance window takes other sections."""
+    windows, standoff, grasp_z = _scene_constants()
+    sizes = {k: np.asarray(v, dtype=float) for k, v in params.items()}
+    batch = np.broadcast_shapes(*(v.shape for v in sizes.values()), np.shape(rotation))
+    cos = np.broadcast_to(np.cos(np.asarray(rotation, dtype=float)), batch)[..., None]
+    reach_at = max(hi for _, hi, _ in windows) / float(np.min(cos, initial=1.0))
+    lo_at = min(lo for lo, _, _ in windows) / float(np.min(cos, initial=1.0))
+    u = _CLEARANCE_U[(_CLEARANCE_U >= lo_at - 1e-9) & (_CLEARANCE_U <= reach_at + 1e-9)]
+    with np.errstate(invalid="ignore"):
+        r = shape.radius(u, **{k: np.broadcast_to(v, batch)[..., None] for k, v in sizes.items()})
+    r = np.where(r > 0, r, 0.0)
+    x = u * cos
+    y0 = np.zeros(batch)
+    for lo, hi, depth in windows:
+        inside = (x >= lo - 1e-9) & (x <= hi + 1e-9)
+        y0 = np.minimum(y0, -depth - standoff - np.where(inside, r, 0.0).max(axis=-1))
     return y0, grasp_z
 
 
-def _sections(shape: Shape, params: Mapping[str, np.ndarray], offset) -> tuple[np.ndarray, ...]:
+def _sections(shape: Shape, params: Mapping[str, np.ndarray], pose) -> tuple[np.ndarray, ...]:
     """What each finger meets, batched: reach and sideways fraction (..., 4), and the
-    section's centre y (..., 1) and z (..., 1) in the finger plane."""
-    offset = np.asarray(offset, dtype=float)
-    y0, z0 = nominal_centre(shape, params)
-    sizes = {k: np.asarray(v, dtype=float)[..., None, None] for k, v in params.items()}
-    reach, side = _reach(lambda u: shape.radius(u, **sizes), _XF - offset[..., 0:1])
-    return reach, side, y0[..., None], z0 + offset[..., 1:2]
+    section's centre y (..., 1) and z (..., 4) in the finger plane. ``pose`` (..., 2 or 3):
+    offset along O-O', offset along the fingers (m)[, rotation about the palm normal (rad)].
+    Turned by beta, the axis crosses finger f's plane at z = z0 + dz - (x_f - dx) tan(beta)
+    (``patterns.theoretical_angles``); the section's widest point lies off it (:func:`_reach`)."""
+    pose = np.asarray(pose, dtype=float)
+    beta = pose[..., 2:3] if pose.shape[-1] > 2 else np.zeros(pose.shape[:-1] + (1,))
+    y0, z0 = nominal_centre(shape, params, beta[..., 0])
+    sizes = {k: np.asarray(v, dtype=float)[..., None, None, None] for k, v in params.items()}
+    reach, side, rise = _reach(lambda u: shape.radius(u, **sizes), _XF - pose[..., 0:1], beta)
+    return reach, side, y0[..., None], z0 + pose[..., 1:2] + rise
 
 
 def _chain_features(reach, side, centre_y, centre_z) -> np.ndarray:
@@ -212,7 +279,7 @@ def _chain_features(reach, side, centre_y, centre_z) -> np.ndarray:
 def geometric_features(shape: Shape, params: Mapping[str, np.ndarray], offset) -> np.ndarray:
     """Uncalibrated model, batched: (..., 3, 4) = predicted J3, J0 and the contact's sideways
     fraction per finger, for sizes ``params`` (arrays of one shape) and ``offset`` (..., 2) =
-    (along O-O', along the fingers) in m. A finger with no object under it gets J3 = 90 deg,
+    (along O-O', along the fingers) in m, or (..., 3) with the rotation (rad) last. A finger with no object under it gets J3 = 90 deg,
     J0 = 180 deg and sideways fraction -1. The distal capsule (8 mm) is taken to meet the
     section 1 mm further in than the others (9 mm)."""
     return _chain_features(*_sections(shape, params, offset))
@@ -317,8 +384,9 @@ def measured_features(angles) -> np.ndarray:
 @dataclass(frozen=True)
 class FamilyFit:
     """Best fit of one shape family: sizes (m), offset (m: along O-O', along the fingers),
-    ``residual`` the RMS angle error (rad) over the eight fitted angles, ``score`` the
-    penalised robust cost the identification compares, ``predicted`` (2, 4) J3, J0."""
+    ``rotation_deg`` about the palm normal, ``residual`` the RMS angle error (rad) over the
+    eight fitted angles, ``score`` the penalised robust cost the identification compares,
+    ``predicted`` (2, 4) J3, J0."""
 
     shape: str
     params: dict[str, float]
@@ -326,11 +394,13 @@ class FamilyFit:
     residual: float
     score: float
     predicted: np.ndarray
+    rotation_deg: float = 0.0
 
     def summary(self) -> dict:
         return {
             "params": self.params,
             "offset_m": list(self.offset),
+            "rotation_deg": self.rotation_deg,
             "residual_rad": self.residual,
             "score": self.score,
         }
@@ -362,28 +432,44 @@ class ShapeFit:
             "shape": self.shape,
             "params": self.best.params,
             "offset_m": list(self.best.offset),
+            "rotation_deg": self.best.rotation_deg,
             "residual": self.best.residual,
             "scores": {name: fit.score for name, fit in self.fits.items()},
         }
 
 
+_POSE_LO = (OFFSET_X[0], OFFSET_Z[0], ROTATION[0])
+_POSE_HI = (OFFSET_X[1], OFFSET_Z[1], ROTATION[1])
+_GRID_CHUNK = 8192
+
+
 class _Family:
-    """One shape family's search space: sizes and offsets, normalised to [0, 1]."""
+    """One shape family's search space: sizes, offsets and rotation, normalised to [0, 1]."""
 
     def __init__(self, shape: Shape) -> None:
         self.shape = shape
         self.names = tuple(shape.params)
-        self.lo = np.array([shape.params[k].min for k in self.names] + [OFFSET_X[0], OFFSET_Z[0]])
-        self.hi = np.array([shape.params[k].max for k in self.names] + [OFFSET_X[1], OFFSET_Z[1]])
+        self.lo = np.array([shape.params[k].min for k in self.names] + list(_POSE_LO))
+        self.hi = np.array([shape.params[k].max for k in self.names] + list(_POSE_HI))
         steps = GRID_STEPS.get(len(self.names), 6)
         axes = [np.linspace(0.0, 1.0, steps)] * len(self.names)
-        axes += [np.linspace(0.0, 1.0, n) for n in OFFSET_STEPS]
+        axes += [np.linspace(0.0, 1.0, n) for n in (*OFFSET_STEPS, ROTATION_STEPS)]
         self.spacing = np.array([1.0 / (len(a) - 1) for a in axes])
         grid = np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1).reshape(-1, len(axes))
         self.grid = grid[self.valid(grid)]
-        self.grid_geometry = self.geometry(self.grid)
+        self.grid_geometry = np.concatenate(
+            [self.geometry(self.grid[i : i + _GRID_CHUNK])
+             for i in range(0, len(self.grid), _GRID_CHUNK)]
+        )  # fmt: skip
         self._cal: Calibration | None = None
         self._pred = self.grid_geometry[..., :2, :]
+
+    def starts(self, cost: np.ndarray) -> np.ndarray:
+        """Grid indices the search starts from: the best point of each grid rotation, the
+        ``STARTS`` best of those (the best points overall tend to share one valley)."""
+        rot = self.grid[:, -1]
+        best = [np.flatnonzero(rot == v)[np.argmin(cost[rot == v])] for v in np.unique(rot)]
+        return np.array(sorted(best, key=lambda i: cost[i])[:STARTS])
 
     def grid_prediction(self, cal: Calibration) -> np.ndarray:
         """The grid's predicted angles under ``cal`` (kept for the last calibration used)."""
@@ -407,7 +493,7 @@ class _Family:
     def sections(self, z: np.ndarray) -> tuple[np.ndarray, ...]:
         v = self.values(z)
         params = {k: v[:, i] for i, k in enumerate(self.names)}
-        return _sections(self.shape, params, v[:, -2:])
+        return _sections(self.shape, params, v[:, -3:])
 
     def geometry(self, z: np.ndarray) -> np.ndarray:
         return _chain_features(*self.sections(z))
@@ -457,19 +543,26 @@ def _moves(dims: int) -> np.ndarray:
     return moves[np.any(moves != 0, axis=1)]
 
 
+def _prior(z: np.ndarray) -> np.ndarray:
+    """The rotation prior's score of normalised points (..., dims), rotation last."""
+    beta = ROTATION[0] + np.clip(z[..., -1], 0.0, 1.0) * (ROTATION[1] - ROTATION[0])
+    return (beta / math.radians(ROTATION_PRIOR_DEG)) ** 2
+
+
 def _fit(measured: np.ndarray, fams: Sequence[_Family], cal: Calibration) -> dict[str, FamilyFit]:
-    """Every family's fit at once: the pattern search runs the families in lockstep so that
-    each round is one pass of the finger chain over all their candidates."""
+    """Every family's fit at once: the pattern search runs the families (each from its
+    ``STARTS`` best grid points) in lockstep so that each round is one pass of the finger chain
+    over all their candidates."""
     state = []
     for fam in fams:
-        cost = _costs(measured, fam.grid_prediction(cal), cal)
-        best = int(np.argmin(cost))
+        cost = _costs(measured, fam.grid_prediction(cal), cal) + _prior(fam.grid)
+        starts = fam.starts(cost)
         dims = fam.grid.shape[1]
-        state.append(
-            [fam, fam.grid[best], float(cost[best]), fam.spacing / 2.0,
-             _moves(dims)]
-        )  # fmt: skip
-    # only families whose grid score is near the best one's are worth refining
+        for best in starts:
+            state.append(
+                [fam, fam.grid[best], float(cost[best]), fam.spacing / 2.0, _moves(dims)]
+            )
+    # only starts whose grid score is near the best one's are worth refining
     scores = [c + cal.penalty * len(f.names) for f, _, c, _, _ in state]
     near = [k for k, sc in enumerate(scores) if sc <= min(scores) + REFINE_MARGIN]
     for _ in range(REFINE_ROUNDS):
@@ -483,22 +576,29 @@ def _fit(measured: np.ndarray, fams: Sequence[_Family], cal: Calibration) -> dic
         if not parts:
             break
         for (k, cand), pred in zip(parts, _predict(state, parts, cal), strict=True):
-            c = _costs(measured, pred, cal)
+            c = _costs(measured, pred, cal) + _prior(cand)
             j = int(np.argmin(c))
             if c[j] < state[k][2]:
                 state[k][1], state[k][2] = cand[j], float(c[j])
             else:
                 state[k][3] = state[k][3] / 2.0
     _polish(measured, state, near, cal)
+    best_of: dict[str, list] = {}
+    for entry in state:
+        name = entry[0].shape.name
+        if name not in best_of or entry[2] < best_of[name][2]:
+            best_of[name] = entry
+    kept = list(best_of.values())
     out = {}
-    finals = _predict(state, [(k, s[1][None]) for k, s in enumerate(state)], cal)
-    for (fam, z, cost, _, _), final in zip(state, finals, strict=True):
+    finals = _predict(kept, [(k, s[1][None]) for k, s in enumerate(kept)], cal)
+    for (fam, z, cost, _, _), final in zip(kept, finals, strict=True):
         values = fam.values(z[None])[0]
         predicted = final[0]
         out[fam.shape.name] = FamilyFit(
             shape=fam.shape.name,
             params={k: float(values[i]) for i, k in enumerate(fam.names)},
-            offset=(float(values[-2]), float(values[-1])),
+            offset=(float(values[-3]), float(values[-2])),
+            rotation_deg=float(np.degrees(values[-1])),
             residual=float(np.sqrt(np.mean((measured - predicted) ** 2))),
             score=cost + cal.penalty * len(fam.names),
             predicted=predicted,
@@ -538,6 +638,14 @@ def _polish(measured: np.ndarray, state: list, near: list[int], cal: Calibration
             jac = (-(pred[1:] - pred[0]) / cal.sigma).reshape(len(pts) - 1, -1).T
             jac /= np.maximum(pts[1:] - pts[0], 1e-12).sum(axis=1)  # per unit of z
             w = 1.0 / np.sqrt(1.0 + (e / cal.loss_scale) ** 2)
+            # the rotation prior as one more (unweighted) residual, linear in z
+            spread = math.radians(ROTATION_PRIOR_DEG)
+            beta = ROTATION[0] + pts[0][-1] * (ROTATION[1] - ROTATION[0])
+            prior_row = np.zeros(jac.shape[1])
+            prior_row[-1] = (ROTATION[1] - ROTATION[0]) / spread
+            e = np.append(e, beta / spread)
+            jac = np.vstack([jac, prior_row])
+            w = np.append(w, 1.0)
             a = jac.T @ (w[:, None] * jac)
             g = jac.T @ (w * e)
             steps = []
@@ -555,7 +663,7 @@ def _polish(measured: np.ndarray, state: list, near: list[int], cal: Calibration
         if not trials:
             return
         for (k, cand), pred in zip(trials, _predict(state, trials, cal), strict=True):
-            c = _costs(measured, pred, cal)
+            c = _costs(measured, pred, cal) + _prior(cand)
             j = int(np.argmin(c))
             if c[j] < state[k][2]:
                 state[k][1], state[k][2] = cand[j], float(c[j])
@@ -586,17 +694,25 @@ def predicted_angles(
     params: Mapping[str, float] | None = None,
     offset: tuple[float, float] = (0.0, 0.0),
     calibration: Calibration | None = None,
+    rotation_deg: float = 0.0,
 ) -> np.ndarray:
     """(2, 4) J3 and J0 per long finger the model predicts for ``shape`` at sizes ``params``
-    (defaults filled in, range-checked) and ``offset`` (m, along O-O' and along the fingers)."""
+    (defaults filled in, range-checked), ``offset`` (m, along O-O' and along the fingers) and
+    ``rotation_deg`` about the palm normal (within the searched +-30 deg)."""
     fam = _resolve_family(shape)
     values = fam.shape.resolve(params)
     check_consistent(fam.shape.name, values)
     off = np.asarray(offset, dtype=float)
     if off.shape != (2,) or not np.all(np.isfinite(off)):
         raise UsageError("offset must be two finite numbers (m): along O-O', along the fingers")
+    beta = math.radians(float(rotation_deg))
+    if not (ROTATION[0] - 1e-9 <= beta <= ROTATION[1] + 1e-9):
+        raise UsageError(
+            f"rotation must be within +-{math.degrees(ROTATION[1]):g} deg, got {rotation_deg}"
+        )
     cal = load_calibration() if calibration is None else calibration
-    geo = geometric_features(fam.shape, {k: np.array([v]) for k, v in values.items()}, off[None])
+    pose = np.array([[off[0], off[1], beta]])
+    geo = geometric_features(fam.shape, {k: np.array([v]) for k, v in values.items()}, pose)
     return cal.apply(geo)[0]
 
 

@@ -295,11 +295,10 @@ def _incompatible(descriptor: str, classifier: str) -> str | None:
     signature), or None when it can."""
     from . import plugins
 
-    check = getattr(plugins, "required_descriptor", None)
-    needed = check(classifier) if check else None
-    if needed is None or needed == descriptor:
+    accepted = plugins.accepted_descriptors(classifier)
+    if accepted is None or descriptor in accepted:
         return None
-    return f"{classifier} reads only the {needed} descriptor"
+    return f"{classifier} reads only the {' or '.join(accepted)} descriptor"
 
 
 def _skipped_row(descriptor, classifier, reason, train_records, test_records) -> dict[str, Any]:

@@ -4,7 +4,8 @@ Each class must be a registered shape with a radius profile; a grasp goes to the
 family, fitted in size and position to the grasp's absolute J3 and J1 + J2 angles, scores best.
 ``fit`` learns nothing: it records the classes, so the estimator is a fair training-free
 baseline in ``compare`` and ``train``. It reads the ``raw-joints`` descriptor's columns (with or
-without the thumb) and nothing else.
+without the thumb), or ``robust-joints`` (the same columns zeroed on the open hand, the input
+to use on a real hand), and nothing else.
 """
 
 from __future__ import annotations
@@ -19,7 +20,7 @@ from ..hand import LONG_FINGERS
 from .dtw_template import _GENERIC_FIT_CHECKS
 
 _ANY_FIT = (
-    "shape-fit reads only the raw-joints descriptor's columns of registered shape classes; "
+    "shape-fit reads only the raw-joints layout's columns of registered shape classes; "
     "this check fits it on a generic matrix with integer labels"
 )
 
@@ -46,7 +47,10 @@ class ShapeFitClassifier(ClassifierMixin, BaseEstimator):
     """
 
     required_descriptor = "raw-joints"
-    """The only descriptor whose columns this classifier understands."""
+    """The descriptor whose columns this classifier understands."""
+    accepted_descriptors = ("robust-joints",)
+    """Same columns, read zeroed on the open hand (``robust.py``): a per-joint calibration
+    bias, which the fit would otherwise take for a shape, is gone before the fit."""
 
     def __init__(self, temperature=1.0):
         self.temperature = temperature

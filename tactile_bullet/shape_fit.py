@@ -279,8 +279,8 @@ def _chain_features(reach, side, centre_y, centre_z) -> np.ndarray:
 def geometric_features(shape: Shape, params: Mapping[str, np.ndarray], offset) -> np.ndarray:
     """Uncalibrated model, batched: (..., 3, 4) = predicted J3, J0 and the contact's sideways
     fraction per finger, for sizes ``params`` (arrays of one shape) and ``offset`` (..., 2) =
-    (along O-O', along the fingers) in m, or (..., 3) with the rotation (rad) last. A finger with no object under it gets J3 = 90 deg,
-    J0 = 180 deg and sideways fraction -1. The distal capsule (8 mm) is taken to meet the
+    (along O-O', along the fingers) in m, or (..., 3) with the rotation (rad) last. A finger
+    with no object under it gets J3 = 90 deg, J0 = 180 deg and sideways fraction -1. The distal capsule (8 mm) is taken to meet the
     section 1 mm further in than the others (9 mm)."""
     return _chain_features(*_sections(shape, params, offset))
 

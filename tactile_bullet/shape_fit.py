@@ -280,8 +280,8 @@ def geometric_features(shape: Shape, params: Mapping[str, np.ndarray], offset) -
     """Uncalibrated model, batched: (..., 3, 4) = predicted J3, J0 and the contact's sideways
     fraction per finger, for sizes ``params`` (arrays of one shape) and ``offset`` (..., 2) =
     (along O-O', along the fingers) in m, or (..., 3) with the rotation (rad) last. A finger
-    with no object under it gets J3 = 90 deg, J0 = 180 deg and sideways fraction -1. The distal capsule (8 mm) is taken to meet the
-    section 1 mm further in than the others (9 mm)."""
+    with no object under it gets J3 = 90 deg, J0 = 180 deg and sideways fraction -1. The
+    distal capsule (8 mm) is taken to meet the section 1 mm further in than the others."""
     return _chain_features(*_sections(shape, params, offset))
 
 
@@ -559,9 +559,7 @@ def _fit(measured: np.ndarray, fams: Sequence[_Family], cal: Calibration) -> dic
         starts = fam.starts(cost)
         dims = fam.grid.shape[1]
         for best in starts:
-            state.append(
-                [fam, fam.grid[best], float(cost[best]), fam.spacing / 2.0, _moves(dims)]
-            )
+            state.append([fam, fam.grid[best], float(cost[best]), fam.spacing / 2.0, _moves(dims)])
     # only starts whose grid score is near the best one's are worth refining
     scores = [c + cal.penalty * len(f.names) for f, _, c, _, _ in state]
     near = [k for k, sc in enumerate(scores) if sc <= min(scores) + REFINE_MARGIN]

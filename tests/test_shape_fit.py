@@ -123,6 +123,51 @@ def test_unknown_family_and_bad_offset_are_usage_errors():
         shape_fit.predicted_angles("sphere", {"radius": 1.0})
 
 
+def test_a_sphere_turned_about_its_centre_is_the_same_sphere():
+    """Rotation about the palm normal moves nothing on a sphere; on a cylinder it lowers the
+    section under one outer finger and raises it under the other, so their J3 part ways."""
+    sphere = {"radius": 0.05}
+    square = shape_fit.predicted_angles("sphere", sphere, (0.005, 0.0))
+    for deg in (-25.0, 10.0, 25.0):
+        turned = shape_fit.predicted_angles("sphere", sphere, (0.005, 0.0), rotation_deg=deg)
+        np.testing.assert_allclose(turned, square, atol=np.radians(0.1))  # sampled heights
+    cylinder = {"radius": 0.03, "length": 0.15}
+    flat = shape_fit.predicted_angles("cylinder", cylinder)
+    up = shape_fit.predicted_angles("cylinder", cylinder, rotation_deg=15.0)
+    down = shape_fit.predicted_angles("cylinder", cylinder, rotation_deg=-15.0)
+    ff, lf = 0, 3
+    assert up[0, ff] > flat[0, ff] > down[0, ff]
+    assert up[0, lf] < flat[0, lf] < down[0, lf]
+
+
+def test_fit_recovers_the_rotation_of_exact_model_angles():
+    truth = {"radius": 0.03, "length": 0.15}
+    predicted = shape_fit.predicted_angles("cylinder", truth, (0.004, 0.0), rotation_deg=20.0)
+    angles = np.vstack([predicted[0], predicted[1] / 2, predicted[1] / 2])
+    fit = shape_fit.fit_shape(angles)
+    assert fit.shape == "cylinder"
+    assert fit.best.rotation_deg == pytest.approx(20.0, abs=2.0)
+    assert fit.summary()["rotation_deg"] == fit.best.rotation_deg
+
+
+@pytest.mark.slow
+def test_a_turned_cylinder_is_not_read_as_a_cone():
+    """Before the fit had a rotation, a cylinder turned 25 deg scored best as a cone."""
+    from tactile_bullet.grasp import simulate_grasp
+
+    record = simulate_grasp(
+        "cylinder", {"radius": 0.0419, "length": 0.17}, Pose((0.0, 0.0, 0.0), math.radians(25))
+    )
+    fit = shape_fit.fit_shape(record.fci_angles())
+    assert fit.shape == "cylinder"
+    assert fit.best.rotation_deg == pytest.approx(25.0, abs=5.0)
+
+
+def test_rotation_out_of_the_searched_range_is_a_usage_error():
+    with pytest.raises(UsageError, match="rotation"):
+        shape_fit.predicted_angles("sphere", None, rotation_deg=45.0)
+
+
 def test_shape_fit_classifier_reads_raw_joints(synthetic_split):
     train, _ = synthetic_split
     desc = plugins.get_descriptor("raw-joints")
@@ -130,6 +175,10 @@ def test_shape_fit_classifier_reads_raw_joints(synthetic_split):
     y = np.array([r.shape for r in train[:6]])
     est = plugins.get_classifier("shape-fit").fit(X, y)
     assert plugins.required_descriptor("shape-fit") == "raw-joints"
+    assert plugins.accepted_descriptors("shape-fit") == ("raw-joints", "robust-joints")
+    assert plugins.compatible("robust-joints", "shape-fit")
+    assert not plugins.compatible("signature", "shape-fit")
+    assert plugins.accepted_descriptors("svm") is None
     proba = est.predict_proba(X[:2])
     np.testing.assert_allclose(proba.sum(axis=1), 1.0)
     # it names what fit_shape names over the same classes

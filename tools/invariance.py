@@ -14,8 +14,8 @@ grasp's signature and its DTW distances to the five theoretical patterns, and re
   off if neither helps; correspondence: the largest distance of a correct match),
   written to tactile_bullet/data/identification.json for ``patterns.identify``.
 
-The second training-free identifier, ``shape_fit.fit_shape`` (each family's sizes and offset
-fitted to the absolute J3 and J1 + J2 angles), runs on the same grasps: its rate, confusion and
+The second training-free identifier, ``shape_fit.fit_shape`` (each family's sizes, offset and
+rotation fitted to the absolute J3 and J1 + J2 angles), runs on the same grasps: its rate, confusion and
 fitted-size errors (of the true family's fit) are a section of the same page.
 ``--identifier fit`` puts its names in the main tables instead (printed only: the thresholds and
 ranges in identification.json are the DTW matcher's).
@@ -238,10 +238,12 @@ def fit_markdown(report: dict) -> str:
         "",
         "## Second identifier: size and position fit to the absolute angles",
         "",
-        "`shape_fit.fit_shape` (classifier `shape-fit` on the `raw-joints` descriptor; "
-        "`grasp --json` block `shape_fit`) keeps the scale the signature's normalisation "
-        "removes. For each family it searches the sizes and the object's offset (along O-O' "
-        "within +-20 mm, along the fingers within +-15 mm) whose predicted J3 and J1 + J2 "
+        "`shape_fit.fit_shape` (classifier `shape-fit` on the `raw-joints` or "
+        "`robust-joints` descriptor; `grasp --json` block `shape_fit`) keeps the scale the "
+        "signature's normalisation removes. For each family it searches the sizes and the "
+        "object's pose (offset along O-O' within +-20 mm and along the fingers within +-15 mm, "
+        "rotation about the palm normal within +-30 deg, with a 15 deg Gaussian prior) "
+        "whose predicted J3 and J1 + J2 "
         "per long finger best match the measured ones: each finger closes as Algorithm 1 "
         "closes it, a chain of the URDF's capsules turning joint by joint until it meets the "
         "object's section (theta = s / r(x) played out on the hand's own knuckles), and a "
@@ -250,8 +252,10 @@ def fit_markdown(report: dict) -> str:
         "(and the weights of each angle, the robust loss and the penalty per size parameter) "
         "comes from `tools/shape_fit_calibration.py` on thesis-preset grasps that are not on "
         "this grid (`tactile_bullet/data/shape_fit.json`). The family with the lowest "
-        "penalised score is the answer. The object's rotation about the palm normal is not "
-        "fitted: `python tools/shape_fit_calibration.py --data DIR --no-write` prints both "
+        "penalised score is the answer. A turned object's section in each finger's plane is "
+        "measured where it is widest (on a steep profile, a torus near its ends, that point "
+        "moves away from the axis). The calibration uses unrotated grasps only: "
+        "`python tools/shape_fit_calibration.py --data DIR --no-write` prints both "
         "identifiers' rates on a thesis-preset dataset's rotated grasps (none are on this "
         "grid), per rotation.",
         "",

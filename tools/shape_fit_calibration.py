@@ -8,8 +8,9 @@ geometric + side * sideways fraction by least squares at the grasps' true sizes 
 The residual spread becomes each angle's sigma. The soft-L1 knee and the per-size-parameter
 penalty are then chosen from small candidate sets by identification accuracy on the same
 calibration grasps. Writes tactile_bullet/data/shape_fit.json. Finally it scores the fit and the
-DTW matcher on the dataset's rotated grasps (the model has no rotation parameter: these say how
-far the fit holds as the object turns about the palm normal).
+DTW matcher on the dataset's rotated grasps: the fit searches the rotation too, but none of
+these grasps entered the calibration, so they say how far the model holds as the object turns
+about the palm normal.
 
 Usage: python tools/shape_fit_calibration.py --data DATASET_DIR [--no-write]
 """

@@ -15,8 +15,8 @@ grasp's signature and its DTW distances to the five theoretical patterns, and re
   written to tactile_bullet/data/identification.json for ``patterns.identify``.
 
 The second training-free identifier, ``shape_fit.fit_shape`` (each family's sizes, offset and
-rotation fitted to the absolute J3 and J1 + J2 angles), runs on the same grasps: its rate, confusion and
-fitted-size errors (of the true family's fit) are a section of the same page.
+rotation fitted to the absolute J3 and J1 + J2 angles), runs on the same grasps: its rate,
+confusion and fitted-size errors (of the true family's fit) are a section of the same page.
 ``--identifier fit`` puts its names in the main tables instead (printed only: the thresholds and
 ranges in identification.json are the DTW matcher's).
 

@@ -129,7 +129,13 @@ def main() -> None:
         path.write_text(json.dumps(doc, indent=2) + "\n")
         print(f"wrote {path.relative_to(ROOT)}")
     if rotated:
+        print(f"with the calibration just fitted (loss_scale {scale:g}, penalty {pen:g}):")
         rotated_rates(rotated, sf.Calibration(**coef, loss_scale=scale, penalty=pen))
+        if args.no_write:
+            shipped = sf.load_calibration()
+            print(f"with the shipped calibration (loss_scale {shipped.loss_scale:g}, "
+                  f"penalty {shipped.penalty:g}):")  # fmt: skip
+            rotated_rates(rotated, shipped)
 
 
 def rotated_rates(records, cal) -> None:

@@ -239,9 +239,10 @@ def nominal_centre(
     sizes = {k: np.asarray(v, dtype=float) for k, v in params.items()}
     batch = np.broadcast_shapes(*(v.shape for v in sizes.values()), np.shape(rotation))
     cos = np.broadcast_to(np.cos(np.asarray(rotation, dtype=float)), batch)[..., None]
-    reach_at = max(hi for _, hi, _ in windows) / float(np.min(cos, initial=1.0))
-    lo_at = min(lo for lo, _, _ in windows) / float(np.min(cos, initial=1.0))
-    u = _CLEARANCE_U[(_CLEARANCE_U >= lo_at - 1e-9) & (_CLEARANCE_U <= reach_at + 1e-9)]
+    stretch = 1.0 / float(np.min(cos, initial=1.0))  # a turned axis reaches the windows later
+    lo_at = min(lo for lo, _, _ in windows) * stretch
+    hi_at = max(hi for _, hi, _ in windows) * stretch
+    u = _CLEARANCE_U[(_CLEARANCE_U >= lo_at - 1e-9) & (_CLEARANCE_U <= hi_at + 1e-9)]
     with np.errstate(invalid="ignore"):
         r = shape.radius(u, **{k: np.broadcast_to(v, batch)[..., None] for k, v in sizes.items()})
     r = np.where(r > 0, r, 0.0)
@@ -457,6 +458,9 @@ class _Family:
         self.spacing = np.array([1.0 / (len(a) - 1) for a in axes])
         grid = np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1).reshape(-1, len(axes))
         self.grid = grid[self.valid(grid)]
+        self.rotation_groups = [
+            np.flatnonzero(self.grid[:, -1] == v) for v in np.unique(self.grid[:, -1])
+        ]
         self.grid_geometry = np.concatenate(
             [self.geometry(self.grid[i : i + _GRID_CHUNK])
              for i in range(0, len(self.grid), _GRID_CHUNK)]
@@ -467,8 +471,7 @@ class _Family:
     def starts(self, cost: np.ndarray) -> np.ndarray:
         """Grid indices the search starts from: the best point of each grid rotation, the
         ``STARTS`` best of those (the best points overall tend to share one valley)."""
-        rot = self.grid[:, -1]
-        best = [np.flatnonzero(rot == v)[np.argmin(cost[rot == v])] for v in np.unique(rot)]
+        best = [group[np.argmin(cost[group])] for group in self.rotation_groups]
         return np.array(sorted(best, key=lambda i: cost[i])[:STARTS])
 
     def grid_prediction(self, cal: Calibration) -> np.ndarray:
@@ -543,10 +546,33 @@ def _moves(dims: int) -> np.ndarray:
     return moves[np.any(moves != 0, axis=1)]
 
 
-def _prior(z: np.ndarray) -> np.ndarray:
-    """The rotation prior's score of normalised points (..., dims), rotation last."""
-    beta = ROTATION[0] + np.clip(z[..., -1], 0.0, 1.0) * (ROTATION[1] - ROTATION[0])
-    return (beta / math.radians(ROTATION_PRIOR_DEG)) ** 2
+_ROTATION_SPAN = ROTATION[1] - ROTATION[0]
+
+
+def _prior_residual(z: np.ndarray) -> np.ndarray:
+    """rotation / prior spread of normalised points (..., dims), rotation last: the prior's
+    score is its square."""
+    beta = ROTATION[0] + np.clip(z[..., -1], 0.0, 1.0) * _ROTATION_SPAN
+    return beta / math.radians(ROTATION_PRIOR_DEG)
+
+
+def _objective(measured: np.ndarray, predicted: np.ndarray, z: np.ndarray, cal) -> np.ndarray:
+    """What the search minimises: the robust angle cost plus the rotation prior."""
+    return _costs(measured, predicted, cal) + _prior_residual(z) ** 2
+
+
+def _accept(measured: np.ndarray, state: list, trials: list, cal: Calibration) -> set[int]:
+    """Score each (start index, candidates) of ``trials`` in one pass of the finger chain and
+    move each start to its best candidate where that improves on it; returns the starts that
+    moved."""
+    moved = set()
+    for (k, cand), pred in zip(trials, _predict(state, trials, cal), strict=True):
+        c = _objective(measured, pred, cand, cal)
+        j = int(np.argmin(c))
+        if c[j] < state[k][2]:
+            state[k][1], state[k][2] = cand[j], float(c[j])
+            moved.add(k)
+    return moved
 
 
 def _fit(measured: np.ndarray, fams: Sequence[_Family], cal: Calibration) -> dict[str, FamilyFit]:
@@ -555,7 +581,7 @@ def _fit(measured: np.ndarray, fams: Sequence[_Family], cal: Calibration) -> dic
     over all their candidates."""
     state = []
     for fam in fams:
-        cost = _costs(measured, fam.grid_prediction(cal), cal) + _prior(fam.grid)
+        cost = _objective(measured, fam.grid_prediction(cal), fam.grid, cal)
         starts = fam.starts(cost)
         dims = fam.grid.shape[1]
         for best in starts:
@@ -573,12 +599,9 @@ def _fit(measured: np.ndarray, fams: Sequence[_Family], cal: Calibration) -> dic
                 parts.append((k, cand))
         if not parts:
             break
-        for (k, cand), pred in zip(parts, _predict(state, parts, cal), strict=True):
-            c = _costs(measured, pred, cal) + _prior(cand)
-            j = int(np.argmin(c))
-            if c[j] < state[k][2]:
-                state[k][1], state[k][2] = cand[j], float(c[j])
-            else:
+        moved = _accept(measured, state, parts, cal)
+        for k, _ in parts:
+            if k not in moved:
                 state[k][3] = state[k][3] / 2.0
     _polish(measured, state, near, cal)
     best_of: dict[str, list] = {}
@@ -637,11 +660,9 @@ def _polish(measured: np.ndarray, state: list, near: list[int], cal: Calibration
             jac /= np.maximum(pts[1:] - pts[0], 1e-12).sum(axis=1)  # per unit of z
             w = 1.0 / np.sqrt(1.0 + (e / cal.loss_scale) ** 2)
             # the rotation prior as one more (unweighted) residual, linear in z
-            spread = math.radians(ROTATION_PRIOR_DEG)
-            beta = ROTATION[0] + pts[0][-1] * (ROTATION[1] - ROTATION[0])
             prior_row = np.zeros(jac.shape[1])
-            prior_row[-1] = (ROTATION[1] - ROTATION[0]) / spread
-            e = np.append(e, beta / spread)
+            prior_row[-1] = _ROTATION_SPAN / math.radians(ROTATION_PRIOR_DEG)
+            e = np.append(e, _prior_residual(pts[0]))
             jac = np.vstack([jac, prior_row])
             w = np.append(w, 1.0)
             a = jac.T @ (w[:, None] * jac)
@@ -660,11 +681,7 @@ def _polish(measured: np.ndarray, state: list, near: list[int], cal: Calibration
                     trials.append((k, cand))
         if not trials:
             return
-        for (k, cand), pred in zip(trials, _predict(state, trials, cal), strict=True):
-            c = _costs(measured, pred, cal) + _prior(cand)
-            j = int(np.argmin(c))
-            if c[j] < state[k][2]:
-                state[k][1], state[k][2] = cand[j], float(c[j])
+        _accept(measured, state, trials, cal)
 
 
 def fit_shape(

@@ -126,23 +126,21 @@ def augment(
     return out
 
 
-@dataclass(frozen=True)
-class RobustSignatureDescriptor:
-    """The signature descriptor on :func:`zeroed` records."""
+class _OnZeroedRecords:
+    """A descriptor that reads :func:`zeroed` records through an inner one (``_inner``);
+    subclasses are frozen dataclasses with ``reference`` and ``tail`` fields."""
 
-    points: int = SIGNATURE_LINE_POINTS
-    floor: float = SIGNATURE_FLOOR
-    reference: int = REFERENCE_SAMPLES
-    tail: int = TAIL_SAMPLES
-    name: ClassVar[str] = "robust-signature"
+    name: ClassVar[str]
+    reference: int
+    tail: int
+
+    def _inner(self):
+        raise NotImplementedError
 
     def __post_init__(self) -> None:
-        self._inner()  # validates points and floor
-        _check_count(self.reference, "robust-signature reference")
-        _check_count(self.tail, "robust-signature tail")
-
-    def _inner(self) -> SignatureDescriptor:
-        return SignatureDescriptor(points=self.points, floor=self.floor)
+        self._inner()  # validates the inner descriptor's own options
+        _check_count(self.reference, f"{self.name} reference")
+        _check_count(self.tail, f"{self.name} tail")
 
     @property
     def params(self) -> dict:
@@ -157,7 +155,21 @@ class RobustSignatureDescriptor:
 
 
 @dataclass(frozen=True)
-class RobustJointsDescriptor:
+class RobustSignatureDescriptor(_OnZeroedRecords):
+    """The signature descriptor on :func:`zeroed` records."""
+
+    points: int = SIGNATURE_LINE_POINTS
+    floor: float = SIGNATURE_FLOOR
+    reference: int = REFERENCE_SAMPLES
+    tail: int = TAIL_SAMPLES
+    name: ClassVar[str] = "robust-signature"
+
+    def _inner(self) -> SignatureDescriptor:
+        return SignatureDescriptor(points=self.points, floor=self.floor)
+
+
+@dataclass(frozen=True)
+class RobustJointsDescriptor(_OnZeroedRecords):
     """The raw-joints descriptor on :func:`zeroed` records."""
 
     include_thumb: bool = False
@@ -165,22 +177,8 @@ class RobustJointsDescriptor:
     tail: int = TAIL_SAMPLES
     name: ClassVar[str] = "robust-joints"
 
-    def __post_init__(self) -> None:
-        RawJointsDescriptor(self.include_thumb)
-        _check_count(self.reference, "robust-joints reference")
-        _check_count(self.tail, "robust-joints tail")
-
-    @property
-    def params(self) -> dict:
-        return asdict(self)
-
-    def feature_names(self) -> list[str]:
-        return RawJointsDescriptor(self.include_thumb).feature_names()
-
-    def transform(self, records) -> np.ndarray:
-        items = check_records(records)
-        inner = RawJointsDescriptor(self.include_thumb)
-        return inner.transform([zeroed(r, self.reference, self.tail) for r in items])
+    def _inner(self) -> RawJointsDescriptor:
+        return RawJointsDescriptor(self.include_thumb)
 
 
 @hookimpl

@@ -105,6 +105,18 @@ class Model:
         """(n, n_classes) probabilities; columns follow ``classes``."""
         return np.asarray(self.estimator.predict_proba(self.features(records)), dtype=float)
 
+    def predict_with_proba(self, records: Sequence) -> tuple[np.ndarray, np.ndarray | None]:
+        """Predicted names and probabilities (None where the estimator gives none) from one
+        pass of the descriptor: the estimator's own decision is kept, since it can differ
+        from the probability argmax (SVC with Platt scaling)."""
+        x = self.features(records)
+        names = np.asarray(self.estimator.predict(x)).astype(str)
+        try:
+            proba = np.asarray(self.estimator.predict_proba(x), dtype=float)
+        except (AttributeError, NotImplementedError):
+            proba = None
+        return names, proba
+
 
 def _qualname(kind: type) -> str:
     return f"{kind.__module__}.{kind.__qualname__}"

@@ -214,13 +214,12 @@ def identify(model, record: GraspRecord) -> dict[str, Any]:
     if reason is not None:
         return {"shape": None, "reason": reason, "probabilities": {}}
     classes = [str(c) for c in model.classes]
-    # the estimator's own decision, which can differ from the probability argmax (SVM + Platt)
-    shape = str(predict(model, [record])[0])
-    try:
-        proba = np.asarray(model.predict_proba_records([record]), dtype=float)[0]
-        probabilities = {c: float(p) for c, p in zip(classes, proba, strict=True)}
-    except (AttributeError, NotImplementedError):
+    names, proba = model.predict_with_proba([record])
+    shape = str(names[0])
+    if proba is None:
         probabilities = {c: float(c == shape) for c in classes}
+    else:
+        probabilities = {c: float(p) for c, p in zip(classes, proba[0], strict=True)}
     return {"shape": shape, "probabilities": probabilities}
 
 

@@ -1,5 +1,16 @@
 """tactile-bullet: in-hand tactile shape recognition with a simulated Shadow hand.
 
+The package follows the data: ``objects/`` (what is grasped) -> ``sim/`` (the hand grasping
+it, Algorithm 1) -> a :class:`~tactile_bullet.records.GraspRecord` -> ``perception/`` (the
+signature and the other training-free readings) and ``learn/`` (descriptors, classifiers,
+models) -> ``datasets/`` (many grasps on disk), ``realhand/`` (a real hand's recordings) ->
+``experiments/`` (workflow, benchmark, reports). ``docs/api.md`` lists the public API.
+
+The names users need are importable from here, each on first use so that ``import
+tactile_bullet`` stays light (the CLI's start, plugins)::
+
+    from tactile_bullet import simulate_grasp, workflow, Identifier, read_records, hookimpl
+
 Plugins mark their hook implementations with :data:`hookimpl`::
 
     from tactile_bullet import hookimpl
@@ -7,23 +18,46 @@ Plugins mark their hook implementations with :data:`hookimpl`::
     @hookimpl
     def register_classifiers(register):
         register("my-classifier", MyClassifier)
-
-Live identification from a real hand's joint states: ``from tactile_bullet import Identifier``
-(``streaming.py``).
 """
 
 __version__ = "0.1.0"
 
+import importlib
+
 from .hookspecs import hookimpl  # noqa: E402  (after __version__: plugins.py imports it)
 
-__all__ = ["Identifier", "__version__", "hookimpl"]
+_LAZY: dict[str, tuple[str, str | None]] = {
+    "simulate_grasp": ("tactile_bullet.sim.grasp", "simulate_grasp"),
+    "workflow": ("tactile_bullet.experiments.workflow", None),
+    "Identifier": ("tactile_bullet.realhand.streaming", "Identifier"),
+    "read_records": ("tactile_bullet.datasets.dataset", "read_records"),
+    "load_dataset": ("tactile_bullet.datasets.dataset", "load_dataset"),
+    "load_record": ("tactile_bullet.records", "load_record"),
+    "save_record": ("tactile_bullet.records", "save_record"),
+    "GraspRecord": ("tactile_bullet.records", "GraspRecord"),
+    "Pose": ("tactile_bullet.records", "Pose"),
+    "ControllerSettings": ("tactile_bullet.records", "ControllerSettings"),
+    "signature_of": ("tactile_bullet.perception.signature", "signature_of"),
+    "load_mesh": ("tactile_bullet.objects.meshes", "load_mesh"),
+    "UsageError": ("tactile_bullet.errors", "UsageError"),
+}
+"""Public name -> (module, attribute; None for the module itself), imported on first use."""
+
+__all__ = ["__version__", "hookimpl", *_LAZY]
 
 
 def __getattr__(name: str):
-    """``Identifier`` on first use: the package import stays light (no numpy models, no
-    rosbags) for the CLI's start and for plugins."""
-    if name == "Identifier":
-        from .streaming import Identifier
+    """Resolve a public name on first use (PEP 562), so the package import stays light."""
+    try:
+        module, attribute = _LAZY[name]
+    except KeyError:
+        raise AttributeError(f"module 'tactile_bullet' has no attribute {name!r}") from None
+    value = importlib.import_module(module)
+    if attribute is not None:
+        value = getattr(value, attribute)
+    globals()[name] = value
+    return value
 
-        return Identifier
-    raise AttributeError(f"module 'tactile_bullet' has no attribute {name!r}")
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(_LAZY))

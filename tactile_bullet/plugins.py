@@ -36,10 +36,9 @@ from . import __version__, hookspecs
 from .errors import TactileBulletError, UsageError
 
 DEFAULT_PLUGINS: tuple[str, ...] = (
-    "tactile_bullet.shapes_plugin",
-    "tactile_bullet.descriptors",
-    "tactile_bullet.robust",
-    "tactile_bullet.classifiers.builtin",
+    "tactile_bullet.objects.builtin",
+    "tactile_bullet.learn.builtin",
+    "tactile_bullet.learn.classifiers.builtin",
 )
 """Built-in plugin modules, registered exactly like installed ones."""
 
@@ -170,7 +169,7 @@ def _describe(exc: BaseException) -> str:
 
 def _check_value(kind: str, name: str, value: Any, plugin: str) -> None:
     if kind == "shapes":
-        from .shapes import Shape
+        from .objects.shapes import Shape
 
         if not isinstance(value, Shape):
             raise PluginError(f"plugin {plugin!r} registered shape {name!r} that is not a Shape")
@@ -383,7 +382,7 @@ def get_descriptor(name: str, **params):
         raise UsageError(f"descriptor name must be a non-empty string, got {name!r}")
     if "+" not in name:
         return _build_descriptor(name, params)
-    from .descriptors import ConcatDescriptor
+    from .learn.descriptors import ConcatDescriptor
 
     parts = [p.strip() for p in name.split("+")]
     if any(not p for p in parts) or len(set(parts)) != len(parts):

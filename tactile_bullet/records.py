@@ -21,7 +21,7 @@ from .hand import FCI_JOINTS, FINGERS, JOINT_NAMES, LONG_FINGERS
 
 RECORD_FORMAT = 1
 SOURCES: tuple[str, ...] = ("simulated", "recorded")
-"""Where a record came from: the simulator, or a real hand's recording (recordings.py)."""
+"""Where a record came from: the simulator, or a real hand's recording (realhand/recordings.py)."""
 
 MAX_OFFSET_M = 1.0
 """Largest object offset (m) along any palm axis: a metre is far beyond the hand's reach (an
@@ -75,7 +75,7 @@ class ControllerSettings:
     delta: joint-target increment per control tick (rad); with ``control_every`` physics
     steps of ``timestep`` per tick this sets the closing speed (default 1.44 rad/s at 240 Hz,
     under the Shadow hand's 2 rad/s; at 0.015 rad per tick the contacts turn unstable).
-    thres_t: N m on the damping-compensated, low-passed joint effort (grasp.py).
+    thres_t: N m on the damping-compensated, low-passed joint effort (sim/grasp.py).
     """
 
     mode: str = "torque"
@@ -94,10 +94,10 @@ class ControllerSettings:
     hyperboloid (``tactile-bullet demo``: 96.7% -> 85.0%), so it is off by default. The thumb
     always skips its free sweep, which leaves the long fingers' angles unchanged."""
     early_stop: bool = False
-    """Stop closing a finger as soon as the dynamic non-contact detector (``temporal.py``,
-    thesis ch. 3) finds it out of contact, instead of running it to its joint limits: fewer
-    physics steps where a finger misses the object, identical grasps where none does. Off by
-    default (records saved before it existed load with it off)."""
+    """Stop closing a finger as soon as the dynamic non-contact detector
+    (``perception/temporal.py``, thesis ch. 3) finds it out of contact, instead of running it to
+    its joint limits: fewer physics steps where a finger misses the object, identical grasps
+    where none does. Off by default (records saved before it existed load with it off)."""
     friction: float = 0.8
     """Lateral (Coulomb) friction coefficient of the hand's links and the object. A physics
     knob, not Algorithm 1's: the benchmark's simulator-shift protocol varies it."""
@@ -170,8 +170,8 @@ class GraspRecord:
     the hand link name of each contact. Units: s, rad, N m, m, N.
 
     ``source`` is "simulated" or "recorded" (a real hand's joint states, read by
-    ``recordings.py``: no contacts, pose and controller unknown, ``shape`` the user's label or
-    "unknown").
+    ``realhand/recordings.py``: no contacts, pose and controller unknown, ``shape`` the user's
+    label or "unknown").
     """
 
     shape: str

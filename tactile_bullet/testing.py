@@ -33,8 +33,8 @@ from typing import Any
 
 import numpy as np
 
-from . import protocols as P
 from .errors import UsageError
+from .experiments import protocols as P
 
 SCALE = "tiny"
 CACHE_KEY = "tactile-bullet-comparison"
@@ -63,7 +63,7 @@ def cases(
 ) -> list[Case]:
     """Every compatible combination; None takes every installed descriptor or classifier (so a
     newly installed plugin joins the parametrization for free)."""
-    from .benchmark import check_names
+    from .experiments.benchmark import check_names
     from .plugins import classifier_names, compatible, descriptor_names
 
     descriptors = list(descriptors) if descriptors is not None else descriptor_names()
@@ -92,7 +92,7 @@ class ComparisonData:
 
     def records(self, name: str) -> list:
         """Usable records of one set, simulated (or repaired) first if needed."""
-        from .benchmark import load_set, simulate_sets
+        from .experiments.benchmark import load_set, simulate_sets
 
         if name not in self._sets:
             spec = P.sets(SCALE)[name]
@@ -109,11 +109,11 @@ class ComparisonData:
 
     def score(self, case: Case) -> float:
         """Headline accuracy of the case's method on its protocol."""
-        from .benchmark import level_seed
-        from .perturb import perturb_all
+        from .experiments.benchmark import level_seed
+        from .experiments.workflow import labels_of
+        from .learn.perturb import perturb_all
+        from .learn.robust import augment
         from .plugins import get_classifier, get_descriptor
-        from .robust import augment
-        from .workflow import labels_of
 
         protocol = P.protocols(SCALE)[case.protocol]
         level = protocol.headline

@@ -17,8 +17,8 @@ from collections.abc import Mapping, Sequence
 import numpy as np
 
 from tactile_bullet.hand import FINGER_X, JOINT_NAMES, LONG_FINGERS, THUMB_OPPOSED
+from tactile_bullet.objects.shapes import BUILTIN_SHAPES, THESIS_SHAPES
 from tactile_bullet.records import ControllerSettings, GraspRecord, Pose
-from tactile_bullet.shapes import BUILTIN_SHAPES, THESIS_SHAPES
 
 START_PHI = 0.2
 """Where the finger first meets the object, from the palm side (rad)."""
@@ -52,7 +52,7 @@ def make_record(
     samples: int = 12,
 ) -> GraspRecord:
     """One synthetic record of ``shape`` (default sizes unless ``params``)."""
-    from tactile_bullet.patterns import theoretical_angles
+    from tactile_bullet.perception.patterns import theoretical_angles
 
     rng = np.random.default_rng(0) if rng is None else rng
     spec = SHAPES[shape]

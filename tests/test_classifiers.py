@@ -133,8 +133,8 @@ def test_dtw_template_decides_as_the_pattern_identifier(level):
     column against the size-matched families, without it against default-size patterns."""
     import dataclasses
 
-    from tactile_bullet import patterns
-    from tactile_bullet.signature import signature_of
+    from tactile_bullet.perception import patterns
+    from tactile_bullet.perception.signature import signature_of
 
     records = make_records(per_shape=2, seed=9)
     X = plugins.get_descriptor("signature", points=200, level=level).transform(records)
@@ -157,7 +157,7 @@ def test_platt_sigmoid_minimises_the_smoothed_log_loss():
     from scipy.optimize import minimize
     from scipy.special import expit
 
-    from tactile_bullet.classifiers.svm import platt_sigmoid
+    from tactile_bullet.learn.classifiers.svm import platt_sigmoid
 
     rng = np.random.default_rng(0)
     f = rng.normal(size=300)

@@ -135,7 +135,7 @@ def test_demo_refuses_its_own_earlier_output_and_deletes_nothing(capsys, tmp_pat
     assert "--force" in run_error(capsys, ["demo", "--quick", "--out", str(out)])
     # --force may overwrite, but a larger earlier set would be left half-replaced: refused
     many = [make_record("sphere")] * 25
-    from tactile_bullet.workflow import save_records
+    from tactile_bullet.datasets.bulk import save_records
 
     save_records(many, out / "test", force=True)
     err = run_error(capsys, ["demo", "--quick", "--out", str(out), "--force"])
@@ -145,7 +145,7 @@ def test_demo_refuses_its_own_earlier_output_and_deletes_nothing(capsys, tmp_pat
 
 
 def test_save_records_never_deletes_earlier_records(tmp_path):
-    from tactile_bullet.workflow import save_records
+    from tactile_bullet.datasets.bulk import save_records
 
     records = make_records(shapes=("sphere",), per_shape=3)
     save_records(records, tmp_path)
@@ -259,7 +259,7 @@ def test_compare_or_train_on_too_few_grasps_per_shape(tmp_path, capsys):
 
 
 def test_a_sweep_knows_its_size_without_expanding_it():
-    from tactile_bullet.sweeps import MAX_GRASPS, Sweep, preset
+    from tactile_bullet.datasets.sweeps import MAX_GRASPS, Sweep, preset
 
     assert preset("thesis").size() >= len(preset("thesis").tasks())
     grid = {"min": 0.0, "max": 0.001, "steps": 1_000_000}
@@ -299,7 +299,7 @@ def test_a_negative_vector_needs_no_equals_sign(tmp_path, capsys):
 
 def test_sequential_json_and_full_class_names(capsys, tmp_path):
     pytest.importorskip("torch")
-    from tactile_bullet.sequential_experiment import disturbance_table
+    from tactile_bullet.experiments.sequential import disturbance_table
 
     argv = ["sequential", "--synthetic", "--classes", "3", "--per-class", "30", "--orders", "2",
             "--n-updates", "20", "--recalibration", "5", "--out", str(tmp_path)]  # fmt: skip
@@ -353,7 +353,7 @@ def test_package_data_is_a_package():
 
 def test_a_real_hands_recording_is_not_taken_for_a_grasp_without_contact():
     """Recordings carry no contact sensing: an empty fingers_in_contact means unknown."""
-    from tactile_bullet.contact import nothing_to_identify
+    from tactile_bullet.perception.contact import nothing_to_identify
 
     simulated = replace(make_record("sphere"), fingers_in_contact=(), flags=("no_contact",))
     assert nothing_to_identify(simulated).startswith("no contact")

@@ -147,8 +147,8 @@ def test_data_with_none_of_the_models_shapes(model_file, capsys, tmp_path):
 
 def test_model_whose_descriptor_is_not_installed(folders, capsys, tmp_path):
     from tactile_bullet import plugins
-    from tactile_bullet.descriptors import SignatureDescriptor
     from tactile_bullet.hookspecs import hookimpl
+    from tactile_bullet.learn.descriptors import SignatureDescriptor
 
     class Renamed(SignatureDescriptor):
         name = "renamed-signature"
@@ -225,8 +225,8 @@ def test_report_or_demo_folder_that_is_a_file_fails_before_any_work(folders, mod
 def test_commands_read_a_dataset_folder(capsys, tmp_path):
     from test_workflow import SHAPES, synthetic_record
 
-    from tactile_bullet.dataset import generate
-    from tactile_bullet.sweeps import Sweep
+    from tactile_bullet.datasets.generate import generate
+    from tactile_bullet.datasets.sweeps import Sweep
 
     offsets = [-0.008, -0.004, 0.0, 0.004, 0.008]
     sweep = Sweep.from_dict(

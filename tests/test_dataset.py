@@ -14,9 +14,11 @@ import numpy as np
 import pytest
 from synthetic import SMALL_SWEEP as SMALL
 
-from tactile_bullet.dataset import DamagedDataset, generate, load_dataset
+from tactile_bullet.datasets.dataset import load_dataset
+from tactile_bullet.datasets.generate import generate
+from tactile_bullet.datasets.integrity import DamagedDataset
+from tactile_bullet.datasets.sweeps import Sweep
 from tactile_bullet.errors import UsageError
-from tactile_bullet.sweeps import Sweep
 
 
 def fake_grasp(task):

@@ -19,18 +19,13 @@ from cli_helpers import run_error
 from synthetic import make_record
 
 from tactile_bullet.cli import main
-from tactile_bullet.dataset import (
-    DamagedDataset,
-    PartialDataWarning,
-    generate,
-    load_dataset,
-    read_records,
-    verify,
-)
+from tactile_bullet.datasets.dataset import PartialDataWarning, load_dataset, read_records, verify
+from tactile_bullet.datasets.generate import generate
+from tactile_bullet.datasets.integrity import DamagedDataset
+from tactile_bullet.datasets.sweeps import Sweep
 from tactile_bullet.errors import UsageError
+from tactile_bullet.experiments.workflow import records_from
 from tactile_bullet.records import save_record
-from tactile_bullet.sweeps import Sweep
-from tactile_bullet.workflow import records_from
 
 MIX = """
 name = "mix"
@@ -406,7 +401,7 @@ def test_a_model_file_cut_short_is_refused_by_name(pristine, tmp_path, capsys):
 def test_sequential_refuses_a_damaged_dataset_unless_allowed(ds, tmp_path, capsys):
     from argparse import Namespace
 
-    from tactile_bullet.sequential_experiment import load_data
+    from tactile_bullet.cli.sequential import load_data
 
     delete(ds / "shard-00000.npz")
     err = run_error(capsys, ["sequential", "--data", str(ds), "--out", str(tmp_path / "seq")])

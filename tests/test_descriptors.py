@@ -9,8 +9,8 @@ import pytest
 from synthetic import make_record, make_records
 
 from tactile_bullet import plugins
-from tactile_bullet.descriptors import fingertip_normal, raw_joint_names
 from tactile_bullet.errors import UsageError
+from tactile_bullet.learn.descriptors import fingertip_normal, raw_joint_names
 
 
 @pytest.fixture(scope="module")
@@ -19,7 +19,7 @@ def records():
 
 
 def test_signature_is_both_enhanced_lines_then_the_bulges(records):
-    from tactile_bullet.signature import signature_of
+    from tactile_bullet.perception.signature import signature_of
 
     desc = plugins.get_descriptor("signature", points=50)
     X = desc.transform(records)
@@ -40,8 +40,8 @@ def test_signature_floor_keeps_a_nearly_flat_line_flat():
     """A line wobbling by 2% of its level is stretched to +-1 without a floor (the thesis'
     normalisation) but stays within +-0.6 under the default 5% floor; a clear curve reaches
     +-1 either way."""
-    from tactile_bullet.descriptors import SignatureDescriptor
-    from tactile_bullet.signature import enhance
+    from tactile_bullet.learn.descriptors import SignatureDescriptor
+    from tactile_bullet.perception.signature import enhance
 
     wobble = 100.0 + 2.0 * np.sin(np.linspace(0.0, 3.0 * np.pi, 200))
     assert np.abs(enhance(wobble, floor=0.0)[0]).max() == pytest.approx(1.0)
@@ -54,7 +54,7 @@ def test_signature_floor_keeps_a_nearly_flat_line_flat():
 
 
 def test_signature_points_alpha_and_level_change_the_layout(records):
-    from tactile_bullet.signature import signature_of
+    from tactile_bullet.perception.signature import signature_of
 
     desc = plugins.get_descriptor("signature", points=10, alpha=True)
     X = desc.transform(records[:2])

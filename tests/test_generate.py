@@ -10,10 +10,11 @@ import sys
 import pytest
 from synthetic import SMALL_SWEEP as SMALL
 
-from tactile_bullet.dataset import generate, load_dataset
+from tactile_bullet.datasets.dataset import load_dataset
+from tactile_bullet.datasets.executors import CRASH_ENV
+from tactile_bullet.datasets.generate import generate
+from tactile_bullet.datasets.sweeps import Sweep, preset
 from tactile_bullet.errors import UsageError
-from tactile_bullet.executors import CRASH_ENV
-from tactile_bullet.sweeps import Sweep, preset
 
 
 @pytest.fixture

@@ -9,10 +9,10 @@ import numpy as np
 import pytest
 
 from tactile_bullet.errors import UsageError
-from tactile_bullet.grasp import simulate_grasp
 from tactile_bullet.hand import LONG_FINGERS
+from tactile_bullet.objects.shapes import BUILTIN_SHAPES, THESIS_SHAPES
 from tactile_bullet.records import ControllerSettings, Pose, load_record, save_record
-from tactile_bullet.shapes import BUILTIN_SHAPES, THESIS_SHAPES
+from tactile_bullet.sim.grasp import simulate_grasp
 
 SHAPES = {s.name: s for s in BUILTIN_SHAPES}
 CONTACT = ControllerSettings(mode="contact")
@@ -108,7 +108,7 @@ def test_record_holds_time_series_contacts_and_final_state():
 def test_contact_normals_point_out_of_the_object_in_the_palm_frame():
     """A centred cylinder lies along x: at each finger contact the outward normal points away
     from its axis, and the contact sits on its surface (radius from the axis)."""
-    from tactile_bullet.scene import place_object
+    from tactile_bullet.sim.scene import place_object
 
     record = simulate_grasp("cylinder", {"radius": 0.035})
     axis = np.array(place_object(SHAPES["cylinder"], record.params, record.pose).position)

@@ -12,12 +12,12 @@ import pytest
 import trimesh
 from cli_helpers import run_error
 
-from tactile_bullet import meshes
 from tactile_bullet.cli import main
 from tactile_bullet.errors import UsageError
 from tactile_bullet.hand import LONG_FINGERS
+from tactile_bullet.objects import meshes
+from tactile_bullet.objects.shapes import _revolve, ovoid_radius
 from tactile_bullet.records import load_record
-from tactile_bullet.shapes import _revolve, ovoid_radius
 
 REPO = Path(__file__).resolve().parent.parent
 
@@ -140,7 +140,7 @@ def test_grasp_on_a_mesh_touches_it_and_its_record_finds_the_mesh_again(tmp_path
     # the record alone finds its mesh (cache) to re-simulate, bit for bit
     path.unlink()
     meshes.forget_loaded()
-    from tactile_bullet.grasp import simulate_grasp
+    from tactile_bullet.sim.grasp import simulate_grasp
 
     again = simulate_grasp(meshes.shape_of_record(record), pose=record.pose, seed=record.seed)
     assert again.equals(record)
@@ -238,7 +238,7 @@ def test_object_set_sweep_labels_grasps_by_object_name(tmp_path):
     tool = make_objects_tool()
     written = tool.write_set(tmp_path, ["ball", "box", "cup"])
     assert {p.suffix for p in written} == {".ply", ".stl", ".glb", ".toml"}
-    from tactile_bullet.sweeps import Sweep
+    from tactile_bullet.datasets.sweeps import Sweep
 
     train = Sweep.from_toml(tmp_path / "train.toml")
     test = Sweep.from_toml(tmp_path / "test.toml")
@@ -256,7 +256,7 @@ def test_object_set_sweep_labels_grasps_by_object_name(tmp_path):
 
 def test_objects_folder_and_duplicate_names(tmp_path):
     make_objects_tool().write_set(tmp_path, ["ball", "can"])
-    from tactile_bullet.sweeps import Sweep
+    from tactile_bullet.datasets.sweeps import Sweep
 
     sweep = Sweep.from_dict({"objects": [{"folder": ".", "unit": "m"}]}, base=tmp_path)
     assert [o.name for o in sweep.objects] == ["ball", "can"]

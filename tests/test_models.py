@@ -10,9 +10,10 @@ import zipfile
 import numpy as np
 import pytest
 
-from tactile_bullet import __version__, plugins, workflow
+from tactile_bullet import __version__, plugins
 from tactile_bullet.errors import UsageError
-from tactile_bullet.models import (
+from tactile_bullet.experiments import workflow
+from tactile_bullet.learn.models import (
     MODEL_FORMAT_VERSION,
     Model,
     load_model,
@@ -138,7 +139,7 @@ def test_a_pickled_array_inside_the_archive_is_refused(saved, tmp_path, capsys):
 def test_an_estimator_with_untrusted_types_is_refused(saved, tmp_path):
     import skops.io as sio
 
-    from tactile_bullet.classifiers.svm import SVMClassifier
+    from tactile_bullet.learn.classifiers.svm import SVMClassifier
 
     evil = SVMClassifier()
     evil.classes_ = np.array(["cone"])
@@ -245,7 +246,7 @@ class StateCentroid:
 
 def test_state_protocol_saves_a_plugin_classifier(register_test_plugin, synthetic_split, tmp_path):
     from tactile_bullet.hookspecs import hookimpl
-    from tactile_bullet.models import StatefulEstimator
+    from tactile_bullet.learn.models import StatefulEstimator
 
     class Plugin:
         @hookimpl

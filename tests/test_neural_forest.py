@@ -14,7 +14,7 @@ from sklearn.datasets import make_classification  # noqa: E402
 from sklearn.model_selection import train_test_split  # noqa: E402
 from sklearn.utils.estimator_checks import parametrize_with_checks  # noqa: E402
 
-from tactile_bullet.neural_forest import NeuralForestClassifier, per_class_accuracy  # noqa: E402
+from tactile_bullet.learn.neural_forest import NeuralForestClassifier, per_class_accuracy  # noqa: E402
 
 SMALL = {"n_trees": 2, "depth": 3, "n_updates": 150, "n_recalibration_updates": 40}
 """A model small enough for the whole file to run in seconds."""
@@ -51,7 +51,7 @@ def sequential(problem: tuple[np.ndarray, ...]) -> dict:
 
 
 def test_import_does_not_load_torch() -> None:
-    code = "import sys, tactile_bullet.neural_forest; assert 'torch' not in sys.modules"
+    code = "import sys, tactile_bullet.learn.neural_forest; assert 'torch' not in sys.modules"
     subprocess.run([sys.executable, "-c", code], check=True)
 
 
@@ -231,7 +231,7 @@ def test_partial_fit_checks_the_size_with_the_new_classes(problem) -> None:
 
 
 def test_predict_in_small_chunks_gives_the_same_probabilities(problem, monkeypatch) -> None:
-    from tactile_bullet import neural_forest
+    from tactile_bullet.learn import neural_forest
 
     X_train, X_test, y_train, _ = problem
     model = NeuralForestClassifier(random_state=0, **SMALL).fit(X_train, y_train)
@@ -273,7 +273,7 @@ def test_cli_refuses_cuda_on_a_cpu_build_and_huge_depth_with_one_line(capsys, tm
 
 
 def test_whitening_decorrelates_each_trees_inputs_and_is_undone_exactly() -> None:
-    from tactile_bullet.neural_forest import _whitening
+    from tactile_bullet.learn.neural_forest import _whitening
 
     rng = np.random.default_rng(0)
     base = rng.normal(size=(300, 3))

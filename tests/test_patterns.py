@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from tactile_bullet.hand import PHALANX_LENGTHS
-from tactile_bullet.patterns import (
+from tactile_bullet.perception.patterns import (
     PAD_RADIUS,
     Thresholds,
     arc_angles,
@@ -14,9 +14,9 @@ from tactile_bullet.patterns import (
     pattern,
     theoretical_angles,
 )
+from tactile_bullet.perception.rotation import estimate_rotation_deg, fit_calibration
+from tactile_bullet.perception.signature import signature_from_angles
 from tactile_bullet.records import Pose
-from tactile_bullet.rotation import estimate_rotation_deg, fit_calibration
-from tactile_bullet.signature import signature_from_angles
 
 
 def test_arc_angles_follow_eq_2_3_on_large_circles():
@@ -32,8 +32,8 @@ def test_arc_angles_shrink_as_the_circle_grows_and_max_out_without_object():
 
 
 def test_reach_profile_grows_the_solid_by_the_phalanx_radius():
-    from tactile_bullet.patterns import reach_profile
-    from tactile_bullet.shapes import cylinder_radius, sphere_radius
+    from tactile_bullet.objects.shapes import cylinder_radius, sphere_radius
+    from tactile_bullet.perception.patterns import reach_profile
 
     x = np.array([0.0, 0.033])
     sphere = reach_profile(lambda u: sphere_radius(u, 0.045), x, pad=0.009, samples=2001)
@@ -95,7 +95,7 @@ def test_beyond_the_correspondence_threshold_the_shape_is_unknown():
     angles = theoretical_angles("cone")[:, ::-1]  # a cone turned end for end
     result = identify(pattern("cone", None), thresholds=Thresholds(correspondence=1e-6))
     assert result.name == "cone"
-    from tactile_bullet.signature import signature_from_angles
+    from tactile_bullet.perception.signature import signature_from_angles
 
     far = identify(signature_from_angles(angles), thresholds=Thresholds(correspondence=1.0))
     assert far.name == "unknown"
@@ -115,7 +115,7 @@ def test_rotation_calibration_inverts_a_linear_relation():
 
 @pytest.fixture(scope="module")
 def grasps():
-    from tactile_bullet.grasp import simulate_grasp
+    from tactile_bullet.sim.grasp import simulate_grasp
 
     sizes = {
         "cylinder": ({"radius": 0.025}, {"radius": 0.03}),
@@ -125,8 +125,8 @@ def grasps():
 
 
 def test_simulated_same_shape_at_two_sizes_is_closer_than_another_shape(grasps):
-    from tactile_bullet.patterns import signature_distance
-    from tactile_bullet.signature import signature_of
+    from tactile_bullet.perception.patterns import signature_distance
+    from tactile_bullet.perception.signature import signature_of
 
     (cyl_a, cyl_b), (cone_a, cone_b) = (
         [signature_of(r) for r in grasps[k]] for k in ("cylinder", "cone")
@@ -139,7 +139,7 @@ def test_simulated_same_shape_at_two_sizes_is_closer_than_another_shape(grasps):
 def test_signature_summary_has_the_grasp_json_fields(grasps):
     import json
 
-    from tactile_bullet.patterns import signature_summary
+    from tactile_bullet.perception.summary import signature_summary
 
     summary = signature_summary(grasps["cone"][0])
     assert set(summary) == {
@@ -164,7 +164,7 @@ def test_identification_ranges_lie_inside_the_valid_ranges(capsys):
     import json
 
     from tactile_bullet.cli import main
-    from tactile_bullet.patterns import identification_ranges
+    from tactile_bullet.perception.patterns import identification_ranges
 
     ranges = identification_ranges()
     assert set(ranges) <= set(default_library()) and ranges

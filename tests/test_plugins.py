@@ -125,7 +125,7 @@ def test_duplicate_name_is_refused_naming_both_plugins(register_test_plugin):
         register_test_plugin(Plugin(), "test-clash")
     message = str(info.value)
     assert "'svm'" in message and "test-clash" in message
-    assert "tactile_bullet.classifiers.builtin" in message
+    assert "tactile_bullet.learn.classifiers.builtin" in message
     # all or nothing: the name registered before the clash is not kept
     assert "test-first" not in plugins.classifier_names()
     assert "test-clash" not in [p["name"] for p in plugins.plugin_report()]
@@ -166,8 +166,8 @@ def test_a_misspelt_hook_is_reported_not_ignored(register_test_plugin):
 
 def test_a_taken_plugin_name_leaves_the_first_plugin_alone():
     with pytest.raises(plugins.PluginError, match="already registered"):
-        plugins.register_plugin(object(), "tactile_bullet.descriptors")
-    entry = next(p for p in plugins.plugin_report() if p["name"] == "tactile_bullet.descriptors")
+        plugins.register_plugin(object(), "tactile_bullet.learn.builtin")
+    entry = next(p for p in plugins.plugin_report() if p["name"] == "tactile_bullet.learn.builtin")
     assert "signature" in entry["descriptors"] and "error" not in entry
     assert "signature" in plugins.descriptor_names()
 

@@ -9,12 +9,12 @@ import numpy as np
 import pytest
 from synthetic import make_records
 
-from tactile_bullet import protocols as P
 from tactile_bullet.errors import UsageError
-from tactile_bullet.perturb import SensorModel, perturb, perturb_all, turned_normals
+from tactile_bullet.experiments import protocols as P
+from tactile_bullet.learn.perturb import SensorModel, perturb, perturb_all, turned_normals
+from tactile_bullet.learn.robust import augment, zeroed
 from tactile_bullet.plugins import get_descriptor
 from tactile_bullet.records import ControllerSettings, record_from_parts
-from tactile_bullet.robust import augment, zeroed
 
 
 @pytest.fixture(scope="module")
@@ -134,7 +134,7 @@ def test_protocol_names_resolve_or_fail_naming_the_bad_one():
 
 
 def _fractions(task) -> list[float]:
-    from tactile_bullet.shapes import BUILTIN_SHAPES
+    from tactile_bullet.objects.shapes import BUILTIN_SHAPES
 
     spec = next(s for s in BUILTIN_SHAPES if s.name == task.shape)
     return [(task.params[k] - p.min) / (p.max - p.min) for k, p in spec.params.items()]
@@ -186,9 +186,9 @@ def test_default_physics_stays_out_of_saved_records(records):
 def test_scaled_hand_has_longer_fingers_and_the_same_palm():
     """Physical fact: at the open hand, a 3% longer phalanx chain puts each fingertip 3% of
     the knuckle-to-tip length farther from its knuckle, and the knuckles do not move."""
+    from tactile_bullet.objects.shapes import BUILTIN_SHAPES
     from tactile_bullet.records import Pose
-    from tactile_bullet.scene import Scene
-    from tactile_bullet.shapes import BUILTIN_SHAPES
+    from tactile_bullet.sim.scene import Scene
 
     sphere = next(s for s in BUILTIN_SHAPES if s.name == "sphere")
 
@@ -209,7 +209,7 @@ def test_scaled_hand_has_longer_fingers_and_the_same_palm():
 
 
 def test_settled_averages_the_plateau_not_the_motion():
-    from tactile_bullet.robust import settled
+    from tactile_bullet.learn.robust import settled
 
     ramp = np.linspace(0.0, 1.0, 60)
     series = np.stack([np.minimum(ramp, 0.4), ramp], axis=1)  # joint 0 stops at 0.4 early

@@ -10,20 +10,14 @@ import math
 import numpy as np
 import pytest
 
-from tactile_bullet import workflow
-from tactile_bullet.calibration import Calibration, calibration_from_dict
 from tactile_bullet.errors import UsageError
-from tactile_bullet.export import export, published_names
+from tactile_bullet.experiments import workflow
 from tactile_bullet.hand import JOINT_NAMES
-from tactile_bullet.recordings import (
-    J2_MAX,
-    JointMap,
-    canonical_joint,
-    identify_grasps,
-    read_recording,
-    record_from_samples,
-    split_name,
-)
+from tactile_bullet.realhand.calibration import Calibration, calibration_from_dict
+from tactile_bullet.realhand.export import export, published_names
+from tactile_bullet.realhand.joints import J2_MAX, JointMap
+from tactile_bullet.realhand.names import canonical_joint, split_name
+from tactile_bullet.realhand.recordings import identify_grasps, read_recording, record_from_samples
 
 pytest.importorskip("rosbags")
 
@@ -40,7 +34,7 @@ def _with_efforts(records, seed=0):
 @pytest.fixture(scope="session")
 def simulated():
     """Two simulated grasps (real time series, efforts and settle) of different shapes."""
-    from tactile_bullet.grasp import simulate_grasp
+    from tactile_bullet.sim.grasp import simulate_grasp
 
     return [
         simulate_grasp("cylinder", {"radius": 0.035}),
@@ -203,7 +197,7 @@ def test_reimported_grasps_classify_as_the_originals(
 def test_j0_only_recordings_classify_as_their_split(tmp_path, model, held_out_records):
     """A J0-only hand loses how J0 was shared between J2 and J1: the reader's answer is the
     model's answer on the original grasp with J0 split by the documented rule."""
-    from tactile_bullet.export import published_values
+    from tactile_bullet.realhand.export import published_values
 
     out = tmp_path / "j0.csv"
     export(held_out_records, out, "csv", coupled=True)
@@ -262,8 +256,8 @@ def test_recordings_at_a_real_hands_rate_and_length_make_valid_records():
 
 
 def test_recorded_source_survives_a_dataset_and_old_records_stay_simulated(tmp_path, simulated):
-    from tactile_bullet.dataset import load_dataset
-    from tactile_bullet.recordings import write_dataset
+    from tactile_bullet.datasets.dataset import load_dataset
+    from tactile_bullet.realhand.recordings import write_dataset
 
     rec = simulated[0]
     assert "source" not in rec.metadata()  # simulated records are written as before
@@ -362,11 +356,12 @@ def test_identifier_is_exported_lazily():
     import sys
 
     code = (
-        "import sys, tactile_bullet; assert 'tactile_bullet.streaming' not in sys.modules; "
+        "import sys, tactile_bullet; "
+        "assert 'tactile_bullet.realhand.streaming' not in sys.modules; "
         "from tactile_bullet import Identifier; print(Identifier.__module__)"
     )
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
-    assert out.stdout.strip() == "tactile_bullet.streaming"
+    assert out.stdout.strip() == "tactile_bullet.realhand.streaming"
 
 
 def test_calibration_default_is_identity():

@@ -10,12 +10,12 @@ import numpy as np
 import pytest
 from cli_helpers import run_error
 
-from tactile_bullet import workflow
 from tactile_bullet.cli import main
-from tactile_bullet.export import export
+from tactile_bullet.experiments import workflow
 from tactile_bullet.hand import JOINT_NAMES
-from tactile_bullet.models import save_model
-from tactile_bullet.recordings import write_dataset
+from tactile_bullet.learn.models import save_model
+from tactile_bullet.realhand.export import export
+from tactile_bullet.realhand.recordings import write_dataset
 
 pytest.importorskip("rosbags")
 

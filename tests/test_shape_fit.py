@@ -7,11 +7,12 @@ import math
 import numpy as np
 import pytest
 
-from tactile_bullet import plugins, shape_fit
+from tactile_bullet import plugins
 from tactile_bullet.errors import UsageError
-from tactile_bullet.patterns import identify, size_matched_library
+from tactile_bullet.perception import shape_fit
+from tactile_bullet.perception.patterns import identify, size_matched_library
+from tactile_bullet.perception.signature import signature_from_angles
 from tactile_bullet.records import Pose
-from tactile_bullet.signature import signature_from_angles
 
 GRASPS = {
     # DTW names this sphere (a quarter into its size range) a torus
@@ -30,7 +31,7 @@ GRASPS = {
 @pytest.fixture(scope="session")
 def grasps():
     """Final FCI angles (3, 4) of a few simulated grasps, each simulated once."""
-    from tactile_bullet.grasp import simulate_grasp
+    from tactile_bullet.sim.grasp import simulate_grasp
 
     out = {}
     for key, (shape, params, offset) in GRASPS.items():
@@ -153,7 +154,7 @@ def test_fit_recovers_the_rotation_of_exact_model_angles():
 @pytest.mark.slow
 def test_a_turned_cylinder_is_not_read_as_a_cone():
     """Before the fit had a rotation, a cylinder turned 25 deg scored best as a cone."""
-    from tactile_bullet.grasp import simulate_grasp
+    from tactile_bullet.sim.grasp import simulate_grasp
 
     record = simulate_grasp(
         "cylinder", {"radius": 0.0419, "length": 0.17}, Pose((0.0, 0.0, 0.0), math.radians(25))

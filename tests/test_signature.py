@@ -4,9 +4,8 @@ import numpy as np
 import pytest
 
 from tactile_bullet.hand import FCI_JOINTS, JOINT_NAMES, LONG_FINGERS, PHALANX_LENGTHS
-from tactile_bullet.patterns import theoretical_angles
-from tactile_bullet.records import ControllerSettings, GraspRecord, Pose
-from tactile_bullet.signature import (
+from tactile_bullet.perception.patterns import theoretical_angles
+from tactile_bullet.perception.signature import (
     UPSCALE,
     end_point_angle,
     enhance,
@@ -16,6 +15,7 @@ from tactile_bullet.signature import (
     signature_from_angles,
     signature_of,
 )
+from tactile_bullet.records import ControllerSettings, GraspRecord, Pose
 
 FINGER_CENTRES = [UPSCALE // 2 + UPSCALE * k for k in range(4)]
 """Upscaled columns over each finger's own FCI pixel."""
@@ -161,7 +161,7 @@ def test_signature_of_a_record_reads_j3_j2_j1_of_the_four_fingers():
 
 def test_grasp_signature_figure_is_a_png_and_a_bad_path_is_a_usage_error(tmp_path):
     from tactile_bullet.errors import UsageError
-    from tactile_bullet.figures_signature import plot_grasp_signature
+    from tactile_bullet.experiments.figures_signature import plot_grasp_signature
 
     angles = theoretical_angles("cone")
     final = np.zeros(len(JOINT_NAMES))

@@ -6,8 +6,8 @@ import math
 
 import pytest
 
+from tactile_bullet.datasets.sweeps import PRESETS, Sweep, preset
 from tactile_bullet.errors import UsageError
-from tactile_bullet.sweeps import PRESETS, Sweep, preset
 
 
 def write(tmp_path, text: str):

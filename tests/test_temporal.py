@@ -14,7 +14,7 @@ import pytest
 from cli_helpers import run_error
 
 from tactile_bullet.errors import UsageError
-from tactile_bullet.temporal import (
+from tactile_bullet.perception.temporal import (
     DynamicDetector,
     contact_truth,
     corrected_signature,
@@ -146,8 +146,8 @@ def test_a_record_with_final_angles_only_is_refused(sphere_off):
 @pytest.fixture(scope="session")
 def sphere_off():
     """A 35 mm sphere moved 25 mm toward the first finger: the little finger misses it."""
-    from tactile_bullet.grasp import simulate_grasp
     from tactile_bullet.records import ControllerSettings, Pose
+    from tactile_bullet.sim.grasp import simulate_grasp
 
     pose = Pose((0.025, 0.0, 0.0))
     raw = simulate_grasp("sphere", {"radius": 0.035}, pose)
@@ -157,8 +157,8 @@ def sphere_off():
 
 @pytest.fixture(scope="session")
 def cylinder_centred():
-    from tactile_bullet.grasp import simulate_grasp
     from tactile_bullet.records import ControllerSettings
+    from tactile_bullet.sim.grasp import simulate_grasp
 
     return (
         simulate_grasp("cylinder", {"radius": 0.03}),
@@ -194,7 +194,11 @@ def test_areas_of_a_simulated_grasp_are_ordered_and_the_free_finger_adapts_last(
 
 @pytest.mark.slow
 def test_corrected_signature_of_an_offset_small_sphere_is_closer_to_the_sphere(sphere_off):
-    from tactile_bullet.patterns import closest_in_size, signature_distance, size_matched_library
+    from tactile_bullet.perception.patterns import (
+        closest_in_size,
+        signature_distance,
+        size_matched_library,
+    )
 
     record = sphere_off["raw"]
     family = size_matched_library()["sphere"]
@@ -280,7 +284,7 @@ def test_temporal_command_bad_input_exits_2(sphere_off, tmp_path, capsys):
 
 
 def test_a_sweep_can_ask_for_early_stop_and_old_manifests_still_match():
-    from tactile_bullet.sweeps import Sweep
+    from tactile_bullet.datasets.sweeps import Sweep
 
     data = {"controller": {"early_stop": True}, "shapes": [{"name": "sphere"}]}
     sweep = Sweep.from_dict(data)

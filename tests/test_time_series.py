@@ -14,7 +14,7 @@ from synthetic import make_record, make_records
 
 from tactile_bullet import plugins
 from tactile_bullet.errors import UsageError
-from tactile_bullet.time_series import (
+from tactile_bullet.learn.time_series import (
     TimeSeriesDescriptor,
     channel_names,
     resample_series,
@@ -147,7 +147,7 @@ def series_split(synthetic_split):
 
 @pytest.fixture(scope="module")
 def fitted(series_split):
-    from tactile_bullet.classifiers.tcn import TCNClassifier
+    from tactile_bullet.learn.classifiers.tcn import TCNClassifier
 
     X_train, _, y_train, _ = series_split
     return TCNClassifier(random_state=3, **QUICK).fit(X_train, y_train)
@@ -164,7 +164,7 @@ def test_tcn_learns_the_shapes_from_the_series(fitted, series_split):
 
 @torch_missing
 def test_tcn_same_seed_same_model_other_seed_another(fitted, series_split):
-    from tactile_bullet.classifiers.tcn import TCNClassifier
+    from tactile_bullet.learn.classifiers.tcn import TCNClassifier
 
     X_train, X_test, y_train, _ = series_split
     again = TCNClassifier(random_state=3, **QUICK).fit(X_train, y_train)
@@ -177,7 +177,7 @@ def test_tcn_same_seed_same_model_other_seed_another(fitted, series_split):
 def test_numpy_prediction_is_the_trained_torch_network(fitted, series_split):
     import torch
 
-    from tactile_bullet.classifiers.tcn import _logits_torch
+    from tactile_bullet.learn.classifiers.tcn import _logits_torch
 
     _, X_test, _, _ = series_split
     h = torch.tensor(fitted._standardise(fitted._reshape(X_test)))
@@ -196,7 +196,7 @@ def test_numpy_prediction_is_the_trained_torch_network(fitted, series_split):
 
 @torch_missing
 def test_saved_tcn_predicts_the_same_without_torch(fitted, series_split, tmp_path):
-    from tactile_bullet.models import Model, load_model, save_model
+    from tactile_bullet.learn.models import Model, load_model, save_model
 
     _, X_test, _, _ = series_split
     model = Model("time-series", {"length": QUICK["length"]}, "tcn", QUICK, fitted)
@@ -208,7 +208,7 @@ def test_saved_tcn_predicts_the_same_without_torch(fitted, series_split, tmp_pat
     np.save(tmp_path / "x.npy", X_test)
     code = (
         "import sys, numpy as np\n"
-        "from tactile_bullet.models import load_model\n"
+        "from tactile_bullet.learn.models import load_model\n"
         f"m = load_model({str(path)!r})\n"
         f"p = m.estimator.predict_proba(np.load({str(tmp_path / 'x.npy')!r}))\n"
         "assert 'torch' not in sys.modules\n"
@@ -220,7 +220,7 @@ def test_saved_tcn_predicts_the_same_without_torch(fitted, series_split, tmp_pat
 
 @torch_missing
 def test_a_tampered_tcn_state_is_refused(fitted, tmp_path):
-    from tactile_bullet.models import Model, load_model, save_model
+    from tactile_bullet.learn.models import Model, load_model, save_model
 
     model = Model("time-series", {"length": QUICK["length"]}, "tcn", QUICK, fitted)
     path = save_model(tmp_path / "tcn.npz", model)
@@ -262,7 +262,7 @@ def test_bad_tcn_parameters_exit_2_before_training(param, message, capsys, tmp_p
 
 
 def _checked_tcn():
-    from tactile_bullet.classifiers.tcn import TCNClassifier
+    from tactile_bullet.learn.classifiers.tcn import TCNClassifier
 
     # sklearn's checks feed 2- to 20-feature tables: length=1 reads each feature as a channel
     return TCNClassifier(length=1, width=8, n_layers=2, epochs=60, batch_size=32)

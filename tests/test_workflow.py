@@ -7,11 +7,11 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from tactile_bullet import reports, workflow
 from tactile_bullet.errors import UsageError
+from tactile_bullet.experiments import reports, workflow
 from tactile_bullet.hand import FCI_JOINTS, FINGER_X, JOINT_NAMES, LONG_FINGERS, PHALANX_LENGTHS
+from tactile_bullet.objects.shapes import BUILTIN_SHAPES
 from tactile_bullet.records import ControllerSettings, GraspRecord, Pose
-from tactile_bullet.shapes import BUILTIN_SHAPES
 
 SHAPES = ("cone", "sphere", "cylinder")
 TABLE = {s.name: s for s in BUILTIN_SHAPES}
@@ -80,7 +80,7 @@ def test_trained_model_tells_synthetic_shapes_apart(model, data):
 
 
 def test_saved_model_predicts_what_the_trained_one_did(model, data, tmp_path):
-    from tactile_bullet.models import load_model, save_model
+    from tactile_bullet.learn.models import load_model, save_model
 
     path = save_model(tmp_path / "model.npz", model)
     loaded = load_model(path)

@@ -13,7 +13,7 @@ mean and the range, the figure the README quotes:
     python tools/bench_accuracy.py --train-per-shape 40 --test-per-shape 20 --seeds 0,1,2,3,4,5
 
 ``--classifier``, ``--param`` and ``--descriptor-param`` score another signature model on the
-same splits (the figures in ``descriptors.py`` and ``classifiers/svm.py`` come from these):
+same splits (the figures in ``learn/descriptors.py`` and ``classifiers/svm.py`` come from these):
 
     python tools/bench_accuracy.py --seeds 0,1,2,3,4,5 --descriptor-param points=50
     python tools/bench_accuracy.py --seeds 0,1,2,3,4,5 --param C=10
@@ -63,7 +63,7 @@ def rescore(args, doc: dict) -> None:
     """Replace the demo's accuracy and confusion matrix with the chosen model's, trained and
     tested on the grasps the demo simulated (so no grasp is simulated twice)."""
     from tactile_bullet.cli.common import estimator_params
-    from tactile_bullet.workflow import evaluate, records_from, train
+    from tactile_bullet.experiments.workflow import evaluate, records_from, train
 
     model = train(
         records_from(doc["data"]["train"]),
@@ -79,8 +79,8 @@ def rescore(args, doc: dict) -> None:
 
 def run_split(args, seed: int, out: str | None) -> dict:
     """One demo-protocol split: its document (workflow.demo) with the details printed."""
-    from tactile_bullet.reports import confusion_text
-    from tactile_bullet.workflow import demo
+    from tactile_bullet.experiments.reports import confusion_text
+    from tactile_bullet.experiments.workflow import demo
 
     if args.reuse:
         return reuse_split(args, seed, out)
@@ -116,7 +116,7 @@ def run_split(args, seed: int, out: str | None) -> dict:
 
 def reuse_split(args, seed: int, out: str | None) -> dict:
     """Score the chosen model on a split an earlier ``--out`` run kept (no simulation)."""
-    from tactile_bullet.reports import confusion_text
+    from tactile_bullet.experiments.reports import confusion_text
 
     folder = Path(out) if out else None
     if folder is None or not (folder / "train").is_dir() or not (folder / "test").is_dir():

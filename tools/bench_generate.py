@@ -28,9 +28,11 @@ import tempfile
 import time
 from pathlib import Path
 
-from tactile_bullet.dataset import _fsync_write, encode_shard, generate, load_dataset, verify
-from tactile_bullet.executors import run_task
-from tactile_bullet.sweeps import ShapeSweep, Sweep
+from tactile_bullet.datasets.dataset import load_dataset, verify
+from tactile_bullet.datasets.executors import run_task
+from tactile_bullet.datasets.generate import generate
+from tactile_bullet.datasets.shards import encode_shard, fsync_write
+from tactile_bullet.datasets.sweeps import ShapeSweep, Sweep
 
 
 def sweep(n: int) -> Sweep:
@@ -122,8 +124,8 @@ def main() -> None:
         for i in range(20):
             data = encode_shard(parts)
             hashlib.sha256(data).hexdigest()
-            _fsync_write(store / f"shard-{i:05d}.npz", data)
-            _fsync_write(store / "manifest.json", json.dumps(manifest_of(i + 1, "x")).encode())
+            fsync_write(store / f"shard-{i:05d}.npz", data)
+            fsync_write(store / "manifest.json", json.dumps(manifest_of(i + 1, "x")).encode())
         per_grasp = (time.perf_counter() - start) / (20 * len(parts))
         share = per_grasp * bare_rate
         print(f"storage time per grasp:      {per_grasp * 1e3:.2f} ms = {share:.2%} "
@@ -135,7 +137,7 @@ def main() -> None:
         big.mkdir()
         n_shards = args.big // 1000
         for i in range(n_shards):
-            _fsync_write(big / f"shard-{i:05d}.npz", shard)
+            fsync_write(big / f"shard-{i:05d}.npz", shard)
         manifest = manifest_of(n_shards, hashlib.sha256(shard).hexdigest())
         (big / "manifest.json").write_text(json.dumps(manifest))
         # Loaded in a fresh process, so that its peak memory is the loading's alone.

@@ -21,9 +21,9 @@ import time
 
 import numpy as np
 
-from tactile_bullet.grasp import simulate_grasp
+from tactile_bullet.objects.shapes import BUILTIN_SHAPES
 from tactile_bullet.records import ControllerSettings
-from tactile_bullet.shapes import BUILTIN_SHAPES
+from tactile_bullet.sim.grasp import simulate_grasp
 
 CEILING_STEPS = 240
 

@@ -30,9 +30,9 @@ from pathlib import Path
 
 import numpy as np
 
-from tactile_bullet import meshes
-from tactile_bullet.grasp import simulate_grasp
+from tactile_bullet.objects import meshes
 from tactile_bullet.plugins import shape_names
+from tactile_bullet.sim.grasp import simulate_grasp
 
 PROFILES = {
     # name: (radius along the axis (m), the primitive that collides the same way)

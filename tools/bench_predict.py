@@ -42,7 +42,7 @@ def cli_start_seconds(runs: int) -> list[float]:
 
 
 def load_records(args):
-    from tactile_bullet import workflow
+    from tactile_bullet.experiments import workflow
 
     if args.data:
         return workflow.records_from(args.data)
@@ -79,7 +79,8 @@ def main() -> int:
 
     from threadpoolctl import threadpool_limits
 
-    from tactile_bullet import plugins, workflow
+    from tactile_bullet import plugins
+    from tactile_bullet.experiments import workflow
 
     starts = cli_start_seconds(args.start_runs)
     print(

@@ -27,10 +27,10 @@ def main() -> None:
     parser.add_argument("--grasps", type=int, default=100)
     args = parser.parse_args()
 
-    from tactile_bullet import workflow
-    from tactile_bullet.export import export
-    from tactile_bullet.models import load_model
-    from tactile_bullet.recordings import identify_grasps, read_recording
+    from tactile_bullet.experiments import workflow
+    from tactile_bullet.learn.models import load_model
+    from tactile_bullet.realhand.export import export
+    from tactile_bullet.realhand.recordings import identify_grasps, read_recording
 
     records = workflow.records_from(args.data)
     step = max(1, len(records) // args.grasps)

@@ -27,9 +27,9 @@ sys.path.insert(0, str(ROOT / "tests"))
 
 from synthetic import make_records  # noqa: E402
 
-from tactile_bullet.perturb import SensorModel, perturb  # noqa: E402
+from tactile_bullet.learn.perturb import SensorModel, perturb  # noqa: E402
+from tactile_bullet.learn.robust import augment  # noqa: E402
 from tactile_bullet.plugins import get_descriptor  # noqa: E402
-from tactile_bullet.robust import augment  # noqa: E402
 
 
 def per_call(fn, items, repeat: int) -> float:

@@ -22,13 +22,13 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
-from tactile_bullet.patterns import (  # noqa: E402
+from tactile_bullet.perception.patterns import (  # noqa: E402
     default_library,
     dtw_distance,
     identify,
     size_matched_library,
 )
-from tactile_bullet.signature import signature_from_angles  # noqa: E402
+from tactile_bullet.perception.signature import signature_from_angles  # noqa: E402
 
 
 def per_call(fn, args_list, repeat: int) -> float:
@@ -71,8 +71,8 @@ def main() -> None:
 
 def bench_shape_fit(rng: np.random.Generator, repeat: int) -> float:
     """Median seconds of ``fit_shape`` on noisy model angles (grids built before timing)."""
-    from tactile_bullet import shape_fit
-    from tactile_bullet.shapes import BUILTIN_SHAPES, THESIS_SHAPES
+    from tactile_bullet.objects.shapes import BUILTIN_SHAPES, THESIS_SHAPES
+    from tactile_bullet.perception import shape_fit
 
     table = {s.name: s for s in BUILTIN_SHAPES}
     inputs = []

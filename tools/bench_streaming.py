@@ -31,9 +31,10 @@ def main() -> None:
     parser.add_argument("--threads", type=int, default=0, help="BLAS/OpenMP threads (0: default)")
     args = parser.parse_args()
 
-    from tactile_bullet import Identifier, workflow
+    from tactile_bullet import Identifier
+    from tactile_bullet.experiments import workflow
     from tactile_bullet.hand import JOINT_NAMES
-    from tactile_bullet.models import load_model
+    from tactile_bullet.learn.models import load_model
 
     records = workflow.records_from(args.data)
     step = max(1, len(records) // args.grasps)

@@ -35,7 +35,7 @@ from tactile_bullet.records import ControllerSettings, Pose  # noqa: E402
 def pair(job: tuple):
     """(default record, early-stop record) of one grasp, or None if the pose is refused."""
     from tactile_bullet.errors import UsageError
-    from tactile_bullet.grasp import simulate_grasp
+    from tactile_bullet.sim.grasp import simulate_grasp
 
     shape, params, offset, rotation, ctl, seed = job
     pose = Pose(offset, rotation)
@@ -79,7 +79,7 @@ def steps_report(pairs: list[tuple]) -> dict:
 
 
 def preset_jobs(name: str, n: int) -> list[tuple]:
-    from tactile_bullet.sweeps import preset
+    from tactile_bullet.datasets.sweeps import preset
 
     tasks = preset(name).tasks()
     if n <= 0:
@@ -92,7 +92,7 @@ def preset_jobs(name: str, n: int) -> list[tuple]:
 
 
 def demo_jobs(seed: int, train_per_shape: int, test_per_shape: int) -> tuple[list, list]:
-    from tactile_bullet import workflow as wf
+    from tactile_bullet.experiments import workflow as wf
 
     rng = np.random.default_rng(seed)
     out = []
@@ -108,7 +108,7 @@ def demo_jobs(seed: int, train_per_shape: int, test_per_shape: int) -> tuple[lis
 
 
 def demo_accuracy(train_pairs, test_pairs) -> dict:
-    from tactile_bullet.workflow import evaluate, train
+    from tactile_bullet.experiments.workflow import evaluate, train
 
     out = {}
     for k, label in enumerate(("default", "early_stop")):
@@ -121,7 +121,7 @@ def demo_accuracy(train_pairs, test_pairs) -> dict:
 
 def detector_speed(rows: int = 20000) -> float:
     """Microseconds per row of the online dynamic detector (random rising columns)."""
-    from tactile_bullet.temporal import DynamicDetector
+    from tactile_bullet.perception.temporal import DynamicDetector
 
     rng = np.random.default_rng(0)
     g = np.cumsum(rng.uniform(0, 2, size=(rows, 4)), axis=0)

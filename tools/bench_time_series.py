@@ -97,7 +97,7 @@ def main() -> int:
     parser.add_argument("--seed", type=int, default=0, help="seed of the noise")
     args = parser.parse_args()
 
-    from tactile_bullet import workflow
+    from tactile_bullet.experiments import workflow
 
     pairs = [p.split(":", 1) for p in (args.pair or DEFAULT_PAIRS)]
     if any(len(p) != 2 for p in pairs):

@@ -43,14 +43,14 @@ import numpy as np
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 
-from tactile_bullet.patterns import (  # noqa: E402
+from tactile_bullet.objects.shapes import BUILTIN_SHAPES, THESIS_SHAPES  # noqa: E402
+from tactile_bullet.perception.patterns import (  # noqa: E402
     INTEGRAL_PAIR,
     Thresholds,
     identify,
     size_matched_library,
 )
-from tactile_bullet.shapes import BUILTIN_SHAPES, THESIS_SHAPES  # noqa: E402
-from tactile_bullet.signature import signature_from_angles  # noqa: E402
+from tactile_bullet.perception.signature import signature_from_angles  # noqa: E402
 
 TABLE = {s.name: s for s in BUILTIN_SHAPES}
 SIZE_FRACTIONS = (0.0, 0.25, 0.5, 0.75, 1.0)
@@ -73,9 +73,9 @@ def sized(name: str, t: float) -> dict[str, float] | None:
 
 def grasp_job(job: tuple) -> dict:
     """One grasp (run in a worker): its final FCI angles or why it failed."""
-    from tactile_bullet.grasp import simulate_grasp
+    from tactile_bullet.perception.temporal import DETECTORS, detect
     from tactile_bullet.records import Pose
-    from tactile_bullet.temporal import DETECTORS, detect
+    from tactile_bullet.sim.grasp import simulate_grasp
 
     name, t, params, offset = job
     out = {"shape": name, "t": t, "params": params, "offset": list(offset)}
@@ -129,7 +129,7 @@ def simulate(todo: list[tuple], workers: int, cache: Path | None) -> list[dict]:
 
 def signature_and_library(row: dict, correction: str, lib):
     """The row's signature and the patterns to compare it with, after ``correction``."""
-    from tactile_bullet.temporal import corrected_library, corrected_signature
+    from tactile_bullet.perception.temporal import corrected_library, corrected_signature
 
     angles = np.array(row["angles"])
     keep = np.asarray(row["keep"][correction] if correction != "none" else [True] * 4)
@@ -193,7 +193,7 @@ def analyse(rows: list[dict], correction: str = "none") -> dict:
 def fit_rows(rows: list[dict]) -> float:
     """Shape-fit identification of every graspable thesis-shape row (``fit_identified``,
     ``fit_params``: the true family's fitted sizes); returns the median seconds per grasp."""
-    from tactile_bullet.shape_fit import fit_shape
+    from tactile_bullet.perception.shape_fit import fit_shape
 
     times = []
     for row in rows:
@@ -530,8 +530,8 @@ def main() -> None:
 
 def example_figures(folder: Path) -> None:
     """The pattern gallery and one default-size grasp per thesis shape (Figs 2.13, 2.18)."""
-    from tactile_bullet.figures_signature import plot_grasp_signature, plot_patterns
-    from tactile_bullet.grasp import simulate_grasp
+    from tactile_bullet.experiments.figures_signature import plot_grasp_signature, plot_patterns
+    from tactile_bullet.sim.grasp import simulate_grasp
 
     plot_patterns(folder / "signature_patterns.png")
     for name in ("cone", "sphere", "cylinder"):

@@ -25,15 +25,15 @@ import numpy as np
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 
-from tactile_bullet.patterns import (  # noqa: E402
+from tactile_bullet.objects.shapes import BUILTIN_SHAPES  # noqa: E402
+from tactile_bullet.perception.patterns import (  # noqa: E402
     identify,
     size_matched_library,
     theoretical_angles,
 )
+from tactile_bullet.perception.rotation import LINES, alpha_of, fit_calibration, save_calibration  # noqa: E402
+from tactile_bullet.perception.signature import signature_from_angles  # noqa: E402
 from tactile_bullet.records import Pose  # noqa: E402
-from tactile_bullet.rotation import LINES, alpha_of, fit_calibration, save_calibration  # noqa: E402
-from tactile_bullet.shapes import BUILTIN_SHAPES  # noqa: E402
-from tactile_bullet.signature import signature_from_angles  # noqa: E402
 
 TABLE = {s.name: s for s in BUILTIN_SHAPES}
 SHAPES = ("torus", "hyperboloid", "cylinder")
@@ -47,8 +47,8 @@ def sized(name: str, t: float) -> dict[str, float]:
 
 
 def grasp_job(job: tuple) -> dict:
-    from tactile_bullet.grasp import simulate_grasp
     from tactile_bullet.records import Pose
+    from tactile_bullet.sim.grasp import simulate_grasp
 
     name, t, deg = job
     out = {"shape": name, "t": t, "deg": deg}

@@ -30,9 +30,9 @@ sys.path.insert(0, str(ROOT / "tools"))
 
 from invariance import jobs  # noqa: E402
 
-from tactile_bullet import shape_fit as sf  # noqa: E402
-from tactile_bullet.shapes import THESIS_SHAPES  # noqa: E402
-from tactile_bullet.workflow import records_from  # noqa: E402
+from tactile_bullet.experiments.workflow import records_from  # noqa: E402
+from tactile_bullet.objects.shapes import THESIS_SHAPES  # noqa: E402
+from tactile_bullet.perception import shape_fit as sf  # noqa: E402
 
 LOSS_SCALES = (1.0, 2.0, 4.0)
 PENALTIES = (0.0, 1.0, 2.0, 3.0, 4.0, 6.0, 8.0)
@@ -140,8 +140,8 @@ def main() -> None:
 
 def rotated_rates(records, cal) -> None:
     """Fit and DTW identification rates on rotated grasps, per rotation (deg)."""
-    from tactile_bullet.patterns import identify, size_matched_library
-    from tactile_bullet.signature import signature_from_angles
+    from tactile_bullet.perception.patterns import identify, size_matched_library
+    from tactile_bullet.perception.signature import signature_from_angles
 
     library = size_matched_library()
     rows = {}

@@ -27,12 +27,12 @@ import numpy as np
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 
-from tactile_bullet import shape_fit as sf  # noqa: E402
-from tactile_bullet.benchmark import load_set  # noqa: E402
+from tactile_bullet.experiments.benchmark import load_set  # noqa: E402
+from tactile_bullet.experiments.workflow import labels_of  # noqa: E402
 from tactile_bullet.hand import LONG_FINGERS  # noqa: E402
+from tactile_bullet.perception import shape_fit as sf  # noqa: E402
 from tactile_bullet.plugins import get_classifier, get_descriptor  # noqa: E402
 from tactile_bullet.records import FCI_JOINTS  # noqa: E402
-from tactile_bullet.workflow import labels_of  # noqa: E402
 
 SPLITS = (("demo-train", "demo-test"), ("sizes-train", "sizes-test"),
           ("poses-train", "poses-test"))  # fmt: skip

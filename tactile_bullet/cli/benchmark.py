@@ -51,7 +51,7 @@ def add_parser(sub) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from ..benchmark import default_classifiers, default_descriptors, run_benchmark
+    from ..experiments.benchmark import default_classifiers, default_descriptors, run_benchmark
     from .compare import name_list
 
     if args.scale and args.quick and args.scale != "quick":
@@ -71,7 +71,7 @@ def run(args: argparse.Namespace) -> int:
     if args.json:
         emit_json(doc["rows"])
         return 0
-    from ..benchmark import headline_table
+    from ..experiments.benchmark import headline_table
 
     print("headline accuracy (%) per protocol, best worst-case first")
     print(headline_table(doc["rows"]), end="")

@@ -1,26 +1,17 @@
-"""Small helpers shared by the subcommands: JSON output, key=value and vector parsing,
-progress bars, output paths."""
+"""Small helpers shared by the subcommands: key=value and vector parsing, output paths
+(JSON output and progress come from :mod:`tactile_bullet.console`)."""
 
 from __future__ import annotations
 
 import argparse
-import json
 import math
 import os
-import sys
-from collections.abc import Iterable, Mapping, Sequence
+from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
+from ..console import emit_json, log_lines, progress, show_progress  # noqa: F401  (re-exported for the subcommands)
 from ..errors import UsageError
-
-
-def emit_json(doc: Any) -> None:
-    """Print one JSON document on stdout (the ``--json`` contract)."""
-    from ..files import json_value
-
-    json.dump(doc, sys.stdout, indent=2, default=json_value)
-    sys.stdout.write("\n")
 
 
 def parse_number(text: str, what: str) -> float:
@@ -192,23 +183,3 @@ def count(lo: int, hi: int | None = None):
 
 MAX_WORKERS = 256
 """More local processes than this is a typo, not a machine: each one holds a PyBullet copy."""
-
-
-def show_progress(json_mode: bool) -> bool:
-    """Progress bars only for a person watching: a TTY on stderr and no --json."""
-    return not json_mode and sys.stderr.isatty()
-
-
-def log_lines(json_mode: bool) -> bool:
-    """Plain progress lines on stderr: for a person at a terminal (no --json), and wherever
-    stderr is not a terminal (a log file, CI), so long work is never silent for minutes.
-    Only --json at a terminal stays quiet (docs/json.md)."""
-    return not json_mode or not sys.stderr.isatty()
-
-
-def progress(iterable: Iterable, total: int | None, desc: str, enabled: bool) -> Iterable:
-    if not enabled:
-        return iterable
-    from tqdm import tqdm
-
-    return tqdm(iterable, total=total, desc=desc, unit="grasp", file=sys.stderr)

@@ -43,8 +43,8 @@ def name_list(text: str | None, what: str, default) -> list[str]:
 
 
 def run(args: argparse.Namespace) -> int:
+    from ..experiments.workflow import compare
     from ..plugins import classifier_names, descriptor_names
-    from ..workflow import compare
 
     descriptors = name_list(args.descriptor, "--descriptor", descriptor_names)
     classifiers = name_list(args.classifier, "--classifier", classifier_names)

@@ -13,7 +13,7 @@ from collections.abc import Mapping, MutableMapping, Sequence
 from typing import TYPE_CHECKING, Any
 
 if TYPE_CHECKING:  # numpy and the dataset module load only when a command runs
-    from ..dataset import LoadedRecords
+    from ..datasets.dataset import LoadedRecords
 
 
 def add_allow_partial(parser: argparse.ArgumentParser) -> None:
@@ -30,7 +30,7 @@ def read_data(
 ) -> LoadedRecords:
     """The records at ``path`` (dataset, folder of records or one record file), honouring
     ``args.allow_partial``."""
-    from ..dataset import read_records
+    from ..datasets.dataset import read_records
 
     return read_records(path, getattr(args, "allow_partial", False), full=full)
 
@@ -43,7 +43,7 @@ def report_skipped(
     """With ``--allow-partial``: ``data_skipped`` in each JSON document in ``docs`` (also
     when nothing was skipped, so scripts can rely on it), or a line of text when something
     was."""
-    from ..dataset import LoadedRecords
+    from ..datasets.dataset import LoadedRecords
 
     if not getattr(args, "allow_partial", False):
         return

@@ -44,7 +44,7 @@ def add_parser(sub) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from ..workflow import demo, demo_text
+    from ..experiments.workflow import demo, demo_text
 
     show = show_progress(args.json)
     sizes = QUICK if args.quick else {}

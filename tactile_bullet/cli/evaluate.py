@@ -29,10 +29,15 @@ def add_parser(sub) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    from ..experiments.reports import (
+        REPORT_FILES,
+        report_dir,
+        summary_text,
+        write_evaluation_report,
+    )
+    from ..experiments.workflow import evaluate
     from ..files import existing_outputs
-    from ..models import load_model
-    from ..reports import REPORT_FILES, report_dir, summary_text, write_evaluation_report
-    from ..workflow import evaluate
+    from ..learn.models import load_model
 
     if args.report:
         existing_outputs(Path(args.report), REPORT_FILES, "--report folder", args.force)

@@ -39,8 +39,8 @@ def run(args: argparse.Namespace) -> int:
     import time
     from pathlib import Path
 
-    from ..export import check_out, export
-    from ..workflow import records_from
+    from ..experiments.workflow import records_from
+    from ..realhand.export import check_out, export
 
     start = time.perf_counter()
     check_out(Path(args.out), args.format, args.force)  # before loading the dataset

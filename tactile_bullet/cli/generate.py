@@ -101,8 +101,8 @@ class ProgressLines:
 def run(args: argparse.Namespace) -> int:
     import contextlib
 
-    from ..dataset import generate
-    from ..sweeps import Sweep, preset
+    from ..datasets.generate import generate
+    from ..datasets.sweeps import Sweep, preset
 
     sweep = preset(args.preset) if args.preset else Sweep.from_toml(args.config)
     if args.cluster and args.workers != 1:

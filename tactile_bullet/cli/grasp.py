@@ -87,12 +87,12 @@ def run(args: argparse.Namespace) -> int:
         if flag in outputs:
             image_file(outputs[flag], f"--{flag}", "cv2" if flag == "snapshot" else "matplotlib")
 
-    from ..grasp import resolve_shape, timed_grasp
+    from ..sim.grasp import resolve_shape, timed_grasp
 
     shape = mesh_shape(args) or resolve_shape(args.shape)
     hook = None
     if "snapshot" in outputs:
-        from ..render import snapshot
+        from ..sim.render import snapshot
 
         def hook(scene):
             snapshot(scene, outputs["snapshot"])
@@ -106,10 +106,10 @@ def run(args: argparse.Namespace) -> int:
         save_record(record, outputs["out"])
     signature = _signature_block(record)
     if "plot" in outputs:
-        from ..figures_signature import plot_grasp_signature
+        from ..experiments.figures_signature import plot_grasp_signature
 
         plot_grasp_signature(record, outputs["plot"])
-    from ..shape_fit import shape_fit_summary
+    from ..perception.shape_fit import shape_fit_summary
 
     doc = {
         "shape": record.shape,
@@ -140,7 +140,7 @@ def run(args: argparse.Namespace) -> int:
 
 def _signature_block(record) -> dict | None:
     """The `signature` block (docs/json.md), or None where the grasp gives no signature."""
-    from ..patterns import signature_summary
+    from ..perception.summary import signature_summary
 
     try:
         return signature_summary(record)
@@ -150,7 +150,7 @@ def _signature_block(record) -> dict | None:
 
 def _temporal_block(record) -> dict | None:
     """Both non-contact detectors' verdicts (thesis ch. 3), None without a time series."""
-    from ..temporal import temporal_summary
+    from ..perception.temporal import temporal_summary
 
     try:
         return temporal_summary(record)

@@ -58,8 +58,8 @@ def _record(args: argparse.Namespace):
         from ..records import load_record
 
         return load_record(args.record)
-    from ..grasp import simulate_grasp
     from ..records import Pose
+    from ..sim.grasp import simulate_grasp
 
     params = {k: parse_number(v, f"--param {k}") for k, v in parse_key_values(args.param).items()}
     pose = Pose(parse_offset(args.offset), parse_rotation(args.rotation))
@@ -67,8 +67,8 @@ def _record(args: argparse.Namespace):
 
 
 def run(args: argparse.Namespace) -> int:
-    from ..models import load_model
-    from ..workflow import identify
+    from ..experiments.workflow import identify
+    from ..learn.models import load_model
 
     if args.recording:
         return identify_recording(args)

@@ -30,7 +30,7 @@ def add_recording_options(parser: argparse.ArgumentParser) -> None:
 
 def recording_options(args: argparse.Namespace) -> dict:
     """The keyword arguments of ``recordings.read_recording`` from the shared options."""
-    from ..calibration import load_calibration
+    from ..realhand.calibration import load_calibration
 
     gap = parse_number(args.gap, "--gap")
     if gap <= 0:
@@ -64,7 +64,7 @@ def run(args: argparse.Namespace) -> int:
     from collections import Counter
     from pathlib import Path
 
-    from ..recordings import check_dataset_out, read_recording, write_dataset
+    from ..realhand.recordings import check_dataset_out, read_recording, write_dataset
 
     start = time.perf_counter()
     if args.shape is not None and not args.shape.strip():
@@ -101,8 +101,8 @@ def identify_recording(args: argparse.Namespace) -> int:
     """``identify --recording``: the shape of every grasp in a recording."""
     import time
 
-    from ..models import load_model
-    from ..recordings import identify_grasps, read_recording
+    from ..learn.models import load_model
+    from ..realhand.recordings import identify_grasps, read_recording
 
     if args.param or args.offset != "0,0,0" or args.rotation != "0":
         raise UsageError(

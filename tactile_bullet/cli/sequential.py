@@ -4,10 +4,14 @@ from __future__ import annotations
 
 import argparse
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from ..errors import UsageError
 from .common import add_force_flag, count, seed_number
 from .data_args import add_allow_partial
+
+if TYPE_CHECKING:
+    import numpy as np
 
 MAX_SYNTHETIC_VALUES = 20_000_000
 """Largest --synthetic data set (classes x per-class x features numbers, 160 MB of floats)."""
@@ -48,7 +52,7 @@ def add_parser(sub) -> None:
     parser.add_argument(
         "--whiten", action="store_true",
         help="train the forests' splits on whitened inputs, the classifier's default (see "
-        "neural_forest.py); off here, where it costs the sequential figures ~2-3 points",
+        "learn/neural_forest.py); off here, where it costs the sequential figures ~2-3 points",
     )  # fmt: skip
     parser.add_argument("--classes", type=count(2, 1000), default=7, help="--synthetic classes")
     parser.add_argument(
@@ -71,8 +75,8 @@ def add_parser(sub) -> None:
 def check_args(args: argparse.Namespace) -> None:
     """Everything that can be refused before minutes of training, writing nothing: the data
     source, the size of --synthetic data, the figures' folder (no earlier figures unasked)."""
+    from ..experiments.sequential import FIGURES
     from ..files import existing_outputs
-    from ..sequential_experiment import FIGURES
 
     if args.synthetic and args.data is not None:
         raise UsageError("give --data DIR or --synthetic, not both")
@@ -108,7 +112,99 @@ def check_args(args: argparse.Namespace) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from ..sequential_experiment import run as experiment
-
     check_args(args)
-    return experiment(args)
+    return _run(args)
+
+
+def load_data(args: argparse.Namespace) -> tuple[np.ndarray, np.ndarray, list[str]]:
+    """(X, y, class names) with y in 0..n_classes-1. The one place to wire grasp data in."""
+    import numpy as np
+
+    from ..experiments.sequential import class_name
+
+    if args.synthetic:
+        from sklearn.datasets import make_classification
+
+        X, y = make_classification(
+            n_samples=args.classes * args.per_class,
+            n_features=args.features,
+            n_informative=12,
+            n_redundant=8,
+            n_classes=args.classes,
+            n_clusters_per_class=1,
+            class_sep=1.5,
+            random_state=args.seed,
+        )
+        return X, y, [f"class{c}" for c in range(args.classes)]
+    if args.data is None:
+        raise UsageError(
+            "give --data DIR (e.g. from `tactile-bullet generate --preset sequential`) or "
+            "--synthetic"
+        )
+    from ..datasets.dataset import read_records
+    from ..plugins import get_descriptor
+    from .common import estimator_params
+
+    params = estimator_params(args.descriptor_param, "--descriptor-param")
+    loaded = read_records(args.data, getattr(args, "allow_partial", False), full=False)
+    args.data_skipped = loaded.as_json()  # for the --json document
+    if loaded.problems:  # on stderr under --json, where stdout holds one JSON document
+        import sys
+
+        print(loaded.summary(), file=sys.stderr if getattr(args, "json", False) else sys.stdout)
+    records = loaded.records
+    X = get_descriptor(args.descriptor, **params).transform(records)
+    names = [class_name(r) for r in records]
+    classes = sorted(set(names))
+    return np.asarray(X, float), np.array([classes.index(n) for n in names]), classes
+
+
+def _run(args: argparse.Namespace) -> int:
+    """Load the data, check it, then run the experiment or the timing and report."""
+    import sys
+
+    import numpy as np
+
+    from ..console import emit_json
+    from ..experiments.sequential import experiment, experiment_doc, plot, timing, timing_text
+
+    json_mode = bool(getattr(args, "json", False))
+
+    def say(text: str) -> None:
+        print(text, file=sys.stderr if json_mode else sys.stdout, flush=True)
+
+    X, y, names = load_data(args)
+    counts = np.bincount(y, minlength=len(names))
+    if len(names) < 2:
+        raise UsageError(f"the data holds a single class ({names[0]}): nothing to learn in order")
+    if counts.min() < 3:
+        raise UsageError(
+            f"class {names[int(counts.argmin())]!r} has {int(counts.min())} samples: the "
+            "experiment holds a third of each class out for testing and needs at least 3"
+        )
+    if not args.timing:
+        from ..files import probe_folder
+
+        probe_folder(args.out, "--out")  # before minutes of training, not after
+    if args.timing:
+        doc = timing(X, y, names, args)
+        if json_mode:
+            emit_json(_with_skipped(doc, args))
+        else:
+            say(timing_text(doc))
+        return 0
+    found = experiment(X, y, names, args, say)
+    figures = plot(found["results"], found["disturbance"], names, args.out)
+    if json_mode:
+        emit_json(_with_skipped(experiment_doc(found, names, args, X, figures), args))
+    else:
+        for path in figures:
+            say(f"wrote {path}")
+    return 0
+
+
+def _with_skipped(doc: dict, args: argparse.Namespace) -> dict:
+    """``data_skipped`` (docs/json.md) under --allow-partial, as the other commands do."""
+    if getattr(args, "allow_partial", False) and hasattr(args, "data_skipped"):
+        doc["data_skipped"] = args.data_skipped
+    return doc

@@ -15,7 +15,7 @@ from .common import add_force_flag, emit_json, parse_number, writable_file
 
 def add_mesh_options(parser: argparse.ArgumentParser, required: bool = False) -> None:
     """--mesh FILE and the options that say how to read it (shared by grasp and identify)."""
-    from ..mesh_formats import AXES, FORMATS, UNITS
+    from ..objects.mesh_formats import AXES, FORMATS, UNITS
 
     if required:
         parser.add_argument(
@@ -36,7 +36,7 @@ def mesh_shape(args: argparse.Namespace):
         if given:
             raise UsageError(f"{given[0]} applies to --mesh only")
         return None
-    from ..meshes import load_mesh
+    from ..objects.meshes import load_mesh
 
     scale = 1.0 if args.scale is None else parse_number(args.scale, "--scale")
     return load_mesh(args.mesh, args.unit or "m", scale, args.axis or "auto", args.name)
@@ -46,7 +46,7 @@ def mesh_block(shape) -> dict | None:
     """``grasp --json``'s ``mesh`` block: which file, and its nearest primitive pattern."""
     if getattr(shape, "source", None) is None:
         return None
-    from ..meshes import describe
+    from ..experiments.mesh_report import describe
 
     return describe(shape)
 
@@ -78,11 +78,11 @@ def add_parser(sub) -> None:
 def run(args: argparse.Namespace) -> int:
     plot = writable_file(args.plot, "--plot", args.force) if args.plot else None
     shape = mesh_shape(args)
-    from ..meshes import describe
+    from ..experiments.mesh_report import describe
 
     doc = describe(shape, profile_points=len(shape.profile_x))
     if plot is not None:
-        from ..meshes import plot_profile
+        from ..experiments.mesh_report import plot_profile
 
         plot_profile(shape, plot)
         doc["outputs"] = {"plot": str(plot)}

@@ -28,7 +28,7 @@ def _entry(shape, ranges: dict) -> dict:
 
 
 def run(args: argparse.Namespace) -> int:
-    from ..patterns import identification_ranges
+    from ..perception.patterns import identification_ranges
 
     ranges = identification_ranges()
     docs = [_entry(s, ranges) for s in _all_shapes()]

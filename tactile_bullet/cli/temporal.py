@@ -28,8 +28,8 @@ def add_parser(sub) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from ..temporal_experiment import check_outputs, run_experiment, summary_text
-    from ..workflow import records_from
+    from ..experiments.temporal import check_outputs, run_experiment, summary_text
+    from ..experiments.workflow import records_from
 
     check_outputs(args.out, args.force)
     doc = run_experiment(records_from(args.data), args.out, args.force, args.example)

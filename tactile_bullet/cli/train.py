@@ -35,8 +35,8 @@ def add_parser(sub) -> None:
 def run(args: argparse.Namespace) -> int:
     import time
 
-    from ..models import save_model
-    from ..workflow import describe_model, train
+    from ..experiments.workflow import describe_model, train
+    from ..learn.models import save_model
 
     out = writable_file(args.out, "--out", args.force)
     params = estimator_params(args.param, "--param")

@@ -24,7 +24,7 @@ def add_parser(sub) -> None:
 def run(args: argparse.Namespace) -> int:
     import sys
 
-    from ..dataset import verify
+    from ..datasets.dataset import verify
 
     doc = verify(args.data)
     if args.json:

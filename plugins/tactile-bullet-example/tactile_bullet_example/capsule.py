@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import trimesh
 
-from tactile_bullet.shapes import Param, Shape
+from tactile_bullet.objects.shapes import Param, Shape
 
 
 def capsule_radius(x, radius=0.03, length=0.14):

@@ -7,7 +7,7 @@ from typing import ClassVar
 
 import numpy as np
 
-from tactile_bullet.descriptors import check_records
+from tactile_bullet.learn.descriptors import check_records
 
 FINGERS = ("ff", "mf", "rf", "lf")
 

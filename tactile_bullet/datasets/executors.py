@@ -1,0 +1,193 @@
+"""Where grasp tasks run: local worker processes, or a Dask distributed cluster.
+
+Both take the same task list and hand back ``(task_index, outcome)`` pairs as they finish;
+the outcome is either the record's ``(metadata, arrays)`` or an error string. Records are
+deterministic per task, so where a task ran never changes what it produced.
+
+Local workers each build their own PyBullet client per grasp (clients cannot cross
+processes). A worker that dies, even by a segfault, breaks a ``ProcessPoolExecutor``; the run
+then re-runs the tasks that were in flight one at a time in a fresh single-worker pool, so the
+task that kills its worker is found, retried once, and recorded as failed, while the others
+complete.
+
+An interrupt (Ctrl-C, or SIGTERM, which the CLI turns into the same exception) or a consumer
+that stops reading terminates the workers at once instead of waiting for their grasps, so
+nothing of the run outlives it; the dataset is then finished with ``--resume``.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import multiprocessing
+import os
+import signal
+from collections.abc import Callable, Iterator, Sequence
+from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
+from concurrent.futures.process import BrokenProcessPool
+
+from ..errors import UsageError
+from .sweeps import GraspTask
+
+Outcome = tuple[dict, dict] | str
+CRASH_ENV = "TACTILE_BULLET_TEST_CRASH_TASK"
+"""Test hook: a worker running the task with this index kills itself with SIGSEGV."""
+
+MAX_ATTEMPTS = 2
+"""A task whose worker died is retried once, then recorded as failed."""
+
+
+def run_task(task: GraspTask) -> Outcome:
+    """Simulate one task in this process: the record's (metadata, arrays) or an error."""
+    if os.environ.get(CRASH_ENV) == str(task.index):
+        os.kill(os.getpid(), signal.SIGSEGV)
+    from ..sim.grasp import simulate_grasp
+
+    try:
+        record = simulate_grasp(task.target(), task.params, task.pose, task.controller, task.seed)
+    except Exception as exc:  # noqa: BLE001 - a failed grasp is data, not a crash of the run
+        return f"{type(exc).__name__}: {exc}"
+    return record.metadata(), record.arrays()
+
+
+def _context():
+    """forkserver where there is one: workers fork from a server that has already imported
+    the simulator (trimesh and pybullet take ~1 s to import), without inheriting this
+    process's state; spawn elsewhere."""
+    if "forkserver" not in multiprocessing.get_all_start_methods():
+        return multiprocessing.get_context("spawn")
+    context = multiprocessing.get_context("forkserver")
+    context.set_forkserver_preload(
+        ["tactile_bullet.sim.grasp", "tactile_bullet.datasets.executors"]
+    )
+    return context
+
+
+def _our_environment() -> dict[str, str | None]:
+    """The TACTILE_BULLET_* variables as they are now in this process. A forkserver keeps
+    the environment it started with, so each pool hands its workers the current values."""
+    names = {n for n in os.environ if n.startswith("TACTILE_BULLET_")} | {CRASH_ENV}
+    return {n: os.environ.get(n) for n in names}
+
+
+def _set_environment(values: dict[str, str | None]) -> None:
+    for name, value in values.items():
+        if value is None:
+            os.environ.pop(name, None)
+        else:
+            os.environ[name] = value
+
+
+@contextlib.contextmanager
+def _pool(workers: int) -> Iterator[ProcessPoolExecutor]:
+    """A pool whose workers are terminated, not waited for, when the block is left by an
+    exception (an interrupt, or GeneratorExit when the consumer stops): their grasps would
+    otherwise run to the end, and a killed parent would leave them running."""
+    pool = ProcessPoolExecutor(
+        workers, mp_context=_context(), initializer=_set_environment,
+        initargs=(_our_environment(),),
+    )  # fmt: skip
+    try:
+        yield pool
+    except BrokenProcessPool:
+        raise  # the workers are gone already; the caller isolates the suspects
+    except BaseException:
+        _stop_workers(pool)
+        raise
+    finally:
+        pool.shutdown(wait=True, cancel_futures=True)
+
+
+def _stop_workers(pool: ProcessPoolExecutor, grace: float = 5.0) -> None:
+    """Terminate a pool's worker processes now (SIGTERM, then SIGKILL after ``grace``
+    seconds), so that shutting the pool down does not wait for their tasks."""
+    processes = list((getattr(pool, "_processes", None) or {}).values())
+    for process in processes:
+        with contextlib.suppress(OSError, ValueError):
+            process.terminate()
+    for process in processes:
+        with contextlib.suppress(OSError, ValueError, AssertionError):
+            process.join(grace)
+            if process.is_alive():
+                process.kill()
+                process.join(grace)
+
+
+def run_local(
+    tasks: Sequence[GraspTask], workers: int = 1, task_fn: Callable = run_task
+) -> Iterator[tuple[int, Outcome]]:
+    """Run tasks on ``workers`` local processes, yielding results as they complete."""
+    pending = list(tasks)
+    attempts: dict[int, int] = {}
+    suspects: list[GraspTask] = []
+    while pending or suspects:
+        if suspects:  # isolate: one task per pool until each suspect is cleared or convicted
+            task = suspects.pop(0)
+            attempts[task.index] = attempts.get(task.index, 0) + 1
+            with _pool(1) as pool:
+                try:
+                    outcome = pool.submit(task_fn, task).result()
+                except BrokenProcessPool:
+                    if attempts[task.index] >= MAX_ATTEMPTS:
+                        yield task.index, "worker process died (twice) running this task"
+                    else:
+                        suspects.append(task)
+                    continue
+            yield task.index, outcome
+            continue
+        in_flight, pending = yield from _run_pool(pending, workers, task_fn)
+        suspects.extend(in_flight)
+
+
+def _run_pool(tasks, workers, task_fn):
+    """Run ``tasks`` with at most ``workers`` in flight (so few are suspects when a worker
+    dies). Returns (tasks in flight when a worker died, tasks not started yet)."""
+    queue = list(tasks)
+    in_flight: dict[Future, GraspTask] = {}
+    try:
+        with _pool(workers) as pool:
+            while queue or in_flight:
+                while queue and len(in_flight) < workers:
+                    task = queue.pop(0)
+                    in_flight[pool.submit(task_fn, task)] = task
+                done, _ = wait(in_flight, return_when=FIRST_COMPLETED)
+                for future in done:
+                    outcome = future.result()  # BrokenProcessPool if a worker died
+                    yield in_flight.pop(future).index, outcome
+    except BrokenProcessPool:
+        return list(in_flight.values()), queue
+    return [], []
+
+
+def connect_dask(address: str, timeout: float = 5.0):
+    """A client of the Dask scheduler at ``address``, or a UsageError within ``timeout``
+    seconds; called before anything is written, so a wrong address leaves no trace."""
+    try:
+        from distributed import Client
+    except ImportError:
+        raise UsageError(
+            "--cluster needs dask.distributed: pip install 'tactile-bullet[cluster]'"
+        ) from None
+    try:
+        return Client(address, timeout=timeout)
+    except (OSError, TimeoutError, ValueError) as exc:
+        raise UsageError(f"cannot reach the Dask scheduler at {address} ({exc})") from None
+
+
+def run_dask(
+    tasks: Sequence[GraspTask], client, task_fn: Callable = run_task
+) -> Iterator[tuple[int, Outcome]]:
+    """Run tasks on a Dask cluster through ``client`` (closed at the end); the scheduler
+    re-runs the tasks of a worker that dies (its ``allowed-failures`` decides how often)."""
+    from distributed import as_completed
+
+    try:
+        futures = client.map(task_fn, list(tasks), pure=False)
+        index = {f.key: t.index for f, t in zip(futures, tasks, strict=True)}
+        for future in as_completed(futures):
+            try:
+                outcome = future.result()
+            except Exception as exc:  # noqa: BLE001 - e.g. KilledWorker: the task failed
+                outcome = f"{type(exc).__name__}: {exc}"
+            yield index[future.key], outcome
+    finally:
+        client.close()

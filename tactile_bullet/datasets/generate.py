@@ -1,0 +1,276 @@
+"""Writing a dataset: a sweep's grasps run in blocks, each block written atomically as a shard.
+
+A run killed at any moment loses at most the blocks in flight; ``resume`` re-runs the blocks
+the manifest does not list or whose shard is missing or damaged. One writer at a time (a lock
+file).
+"""
+
+from __future__ import annotations
+
+import contextlib
+import hashlib
+import json
+import os
+import sys
+import time
+from collections.abc import Callable, Iterator, Mapping, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from ..errors import UsageError
+from .integrity import Problem, block_tasks, check_shards, read_manifest, shard_problem
+from .shards import (
+    DEFAULT_SHARD_SIZE,
+    FORMAT,
+    LOCK,
+    MANIFEST,
+    NOT_GENERATED,
+    encode_shard,
+    fsync_write,
+    shard_name,
+    software_versions,
+)
+from .sweeps import Sweep
+
+
+@dataclass
+class _Manifest:
+    path: Path
+    data: dict[str, Any] = field(default_factory=dict)
+
+    def save(self) -> None:
+        text = json.dumps(self.data, indent=1, sort_keys=True)
+        fsync_write(self.path, text.encode())
+
+
+def _open_out(
+    out: Path, sweep: Sweep, seed: int, shard_size: int, n_tasks: int, resume: bool
+) -> tuple[_Manifest, list[Problem]]:
+    """Create or reopen the output directory; refuse anything that would mix or lose data.
+
+    On ``resume``, every listed shard is checked (entry, file, size, sha256, record count);
+    what fails is dropped from the manifest so that its block is simulated again, and
+    returned as the list of problems repaired."""
+    config = {"sweep": sweep.to_dict(), "seed": int(seed), "shard_size": int(shard_size)}
+    manifest_path = out / MANIFEST
+    if manifest_path.exists():
+        try:
+            data = read_manifest(out)
+        except UsageError as exc:
+            raise UsageError(f"{exc}; refusing to resume or overwrite it") from None
+        existing = data["config"]
+        if existing != config:
+            differs = [k for k in config if existing.get(k) != config[k]] or ["config"]
+            shown = {"sweep": f"sweep {existing.get('sweep', {}).get('name')!r}"}
+            detail = ", ".join(shown.get(k, f"{k.replace('_', '-')} {existing.get(k)}")
+                               for k in differs)  # fmt: skip
+            raise UsageError(f"{out} holds a different dataset ({detail}); choose another --out")
+        if data["tasks"] != n_tasks:
+            raise UsageError(f"{manifest_path} lists {data['tasks']} tasks, the sweep has "
+                             f"{n_tasks}; refusing to resume it")  # fmt: skip
+        good, problems = check_shards(out, data)
+        if not resume:
+            state = _state(good, problems, n_tasks)
+            raise UsageError(f"{out} already holds this dataset, {state}; use --resume")
+        for entry in list(good):
+            why = shard_problem(out, entry)
+            if why:
+                good.remove(entry)
+                problems.append(Problem(str(out / entry["file"]), why, entry["records"],
+                                        len(block_tasks(data, entry["block"]))))  # fmt: skip
+        for stale in [*out.glob(".shard-*.tmp.npz"), *out.glob(".manifest.*.tmp.json")]:
+            stale.unlink(missing_ok=True)  # half-written by the killed run
+        manifest = _Manifest(manifest_path, data)
+        blocks = {e["block"] for e in good}
+        kept_failed = [f for f in data["failed"] if f["task"] // shard_size in blocks]
+        if good != data["shards"] or kept_failed != data["failed"]:
+            data["shards"], data["failed"] = good, kept_failed
+            manifest.save()  # a run killed from here on never lists a damaged shard again
+        return manifest, [p for p in problems if p.problem != NOT_GENERATED]
+    if any(p.name != LOCK for p in out.iterdir()):
+        raise UsageError(f"--out {out} exists and is not an empty directory or a dataset")
+    if not os.access(out, os.W_OK):
+        raise UsageError(f"--out {out} is not writable")
+    manifest = _Manifest(
+        manifest_path,
+        {
+            "format": FORMAT,
+            "config": config,
+            "tasks": n_tasks,
+            "software": software_versions(),
+            "shards": [],
+            "failed": [],
+        },
+    )
+    manifest.save()
+    return manifest, []
+
+
+def _state(good: Sequence[Mapping], problems: Sequence[Problem], n_tasks: int) -> str:
+    """'complete', 'partial (done/total tasks)' or 'damaged (...)': what a dataset holds,
+    for the refusal to write over it."""
+    damaged = [p for p in problems if p.problem != NOT_GENERATED]
+    if damaged:
+        more = f" and {len(damaged) - 1} more" if len(damaged) > 1 else ""
+        return f"damaged ({damaged[0]}{more})"
+    done = sum(e["records"] + e["failed"] for e in good)
+    return "complete" if done >= n_tasks else f"partial ({done}/{n_tasks} tasks)"
+
+
+def generate(
+    sweep: Sweep,
+    out: str | os.PathLike,
+    *,
+    workers: int = 1,
+    cluster: str | None = None,
+    resume: bool = False,
+    seed: int = 0,
+    shard_size: int | None = None,
+    progress: bool = False,
+    task_fn: Callable | None = None,
+) -> dict[str, Any]:
+    """Simulate every task of ``sweep`` into the dataset directory ``out``.
+
+    ``workers`` local processes (0: in this process, no crash isolation), or the Dask
+    scheduler at ``cluster``. ``shard_size`` None: the existing dataset's (on --resume),
+    else DEFAULT_SHARD_SIZE. Returns the ``generate --json`` document; its ``repaired``
+    lists the shards that ``resume`` found damaged or missing and simulated again.
+    """
+    from . import executors
+
+    if shard_size is None:
+        shard_size = _existing_shard_size(Path(out)) or DEFAULT_SHARD_SIZE
+    if workers < 0:
+        raise UsageError(f"--workers must be >= 0, got {workers}")
+    if shard_size < 1:
+        raise UsageError(f"--shard-size must be >= 1, got {shard_size}")
+    start = time.perf_counter()
+    out = Path(out)
+    tasks = sweep.tasks(seed)
+    client = executors.connect_dask(cluster) if cluster else None
+    try:
+        _make_out(out)
+        with _writer_lock(out):
+            manifest, repaired = _open_out(out, sweep, seed, shard_size, len(tasks), resume)
+            blocks_done = {s["block"] for s in manifest.data["shards"]}
+            todo = [t for t in tasks if t.index // shard_size not in blocks_done]
+            task_fn = task_fn or executors.run_task
+            if client is not None:
+                results = executors.run_dask(todo, client, task_fn)
+                client = None  # run_dask closes it
+            elif workers == 0:
+                results = ((t.index, task_fn(t)) for t in todo)
+            else:
+                results = executors.run_local(todo, workers, task_fn)
+            with contextlib.closing(results):  # an interrupt stops the workers at once
+                _fill(out, manifest, todo, results, shard_size, progress)
+    finally:
+        if client is not None:
+            client.close()
+    shards = manifest.data["shards"]
+    return {
+        "out": str(out),
+        "records": sum(s["records"] for s in shards),
+        "shards": len(shards),
+        "failed": len(manifest.data["failed"]),
+        "repaired": [p.as_dict() for p in repaired],
+        "wall_time_s": time.perf_counter() - start,
+    }
+
+
+def _existing_shard_size(out: Path) -> int | None:
+    try:
+        return int(read_manifest(out)["config"]["shard_size"])
+    except UsageError:
+        return None  # no dataset there (or an invalid one, refused later)
+
+
+def _make_out(out: Path) -> None:
+    """Create ``out`` if needed; refuse (touching nothing) a file or a folder of other data."""
+    if out.exists() and not out.is_dir():
+        raise UsageError(f"--out {out} exists and is not a directory")
+    if out.is_dir() and not (out / MANIFEST).exists():
+        if any(p.name != LOCK for p in out.iterdir()):
+            raise UsageError(f"--out {out} exists and is not an empty directory or a dataset")
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise UsageError(f"cannot create --out {out}: {exc.strerror or exc}") from None
+
+
+@contextlib.contextmanager
+def _writer_lock(out: Path) -> Iterator[None]:
+    """One writer per dataset: a second generate on the same --out (a --resume started while
+    the first still runs) would rewrite the manifest under it. The OS drops the lock when its
+    process dies, so a killed run never blocks the --resume that follows."""
+    try:
+        import fcntl
+    except ImportError:  # Windows: no advisory locks; one writer is then the user's care
+        yield
+        return
+    if (out / LOCK).is_symlink():  # opening it would create or lock a file elsewhere
+        raise UsageError(f"{out / LOCK} is a link; refusing to follow it out of the dataset")
+    try:
+        handle = open(out / LOCK, "a")  # noqa: SIM115 - held until the with block ends
+    except OSError as exc:
+        raise UsageError(f"--out {out} is not writable ({exc.strerror or exc})") from None
+    with handle:
+        try:
+            fcntl.flock(handle, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except OSError:
+            raise UsageError(f"another generate is writing to {out}; let it finish") from None
+        yield
+
+
+def _fill(out, manifest, todo, results, shard_size: int, progress: bool) -> None:
+    """Collect outcomes as they come and write each block's shard once the block is whole."""
+    block_sizes: dict[int, int] = {}
+    for t in todo:
+        block_sizes[t.index // shard_size] = block_sizes.get(t.index // shard_size, 0) + 1
+    buffers: dict[int, dict[int, Any]] = {b: {} for b in block_sizes}
+    bar = None
+    if progress:
+        from tqdm import tqdm
+
+        bar = tqdm(total=len(todo), desc="grasps", unit="grasp", file=sys.stderr)
+    for index, outcome in results:
+        block = index // shard_size
+        buffers[block][index] = outcome
+        if bar is not None:
+            bar.update(1)
+        if len(buffers[block]) == block_sizes[block]:
+            _write_block(out, manifest, block, buffers.pop(block))
+    if bar is not None:
+        bar.close()
+
+
+def _write_block(out: Path, manifest: _Manifest, block: int, outcomes: Mapping[int, Any]):
+    ok = [(i, o) for i, o in sorted(outcomes.items()) if not isinstance(o, str)]
+    failed = [{"task": i, "error": o} for i, o in sorted(outcomes.items()) if isinstance(o, str)]
+    name = shard_name(block)
+    data = encode_shard([o for _, o in ok])
+    fsync_write(out / name, data)
+    entry = {
+        "block": block,
+        "file": name,
+        "records": len(ok),
+        "failed": len(failed),
+        "tasks": [i for i, _ in ok],
+        "sha256": hashlib.sha256(data).hexdigest(),
+        "bytes": len(data),
+    }
+    manifest.data["shards"] = sorted(
+        [s for s in manifest.data["shards"] if s["block"] != block] + [entry],
+        key=lambda s: s["block"],
+    )
+    manifest.data["failed"] = sorted(
+        [
+            f
+            for f in manifest.data["failed"]
+            if f["task"] // manifest.data["config"]["shard_size"] != block
+        ]
+        + failed,
+        key=lambda f: f["task"],
+    )
+    manifest.save()

@@ -1,0 +1,252 @@
+"""Chapter 3's experiment on a set of grasps: detectors against the recorded contacts, decision
+time saved, SVM_pos / SVM_dyn against the uncorrected SVM, DTW distances of corrected
+signatures (thesis Figs 3.3, 3.6/3.9, 3.7/3.10, 3.12/3.13, 3.14), as a JSON summary and PNGs.
+
+``tactile-bullet temporal`` is a thin layer over :func:`run_experiment`.
+"""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from ..errors import UsageError
+from ..perception.temporal import DETECTORS, contact_truth, detect, finger_areas, g_of, gbin
+
+CENTRED_MM = 10.0
+"""An object moved at most this far along O-O' counts as centred (the thesis preset's range)."""
+
+FIGURES = (
+    "g_gbin.png",
+    "detectors.png",
+    "decision_time_saved.png",
+    "confusion_svm_position_centred.png",
+    "confusion_svm_position_off_centre.png",
+    "confusion_svm_dynamic_centred.png",
+    "confusion_svm_dynamic_off_centre.png",
+    "dtw_distances.png",
+)
+SUMMARY = "temporal.json"
+
+
+def output_paths(out: str | os.PathLike) -> list[Path]:
+    """Every file :func:`run_experiment` writes into ``out``."""
+    return [Path(out) / name for name in (*FIGURES, SUMMARY)]
+
+
+def check_outputs(out: str | os.PathLike, force: bool) -> Path:
+    """The output folder, created; a UsageError (before any work) if it holds one of our files
+    and ``force`` is off."""
+    from .reports import report_dir
+
+    folder = report_dir(out)
+    existing = [p.name for p in output_paths(folder) if p.exists()]
+    if existing and not force:
+        raise UsageError(
+            f"{folder} already holds {', '.join(existing[:3])}"
+            f"{' ...' if len(existing) > 3 else ''}: pass --force to overwrite"
+        )
+    return folder
+
+
+def detector_scores(records: Sequence) -> dict[str, Any]:
+    """Per detector: per-finger agreement with the records' contacts, the counts behind Figs
+    3.6/3.9 (detected non-contact, measured non-contact, and the right ones of each), and per
+    grasp the time each decided every finger."""
+    truth = np.array([contact_truth(r) for r in records])
+    out: dict[str, Any] = {"grasps": len(records), "fingers": int(truth.size)}
+    out["measured_non_contact"] = int((~truth).sum())
+    times = {}
+    for method in DETECTORS:
+        dets = [detect(r, method) for r in records]
+        pred = np.array([d.contact_mask for d in dets])
+        times[method] = np.array([d.decided_at_s for d in dets])
+        out[method] = {
+            "agreement": float((pred == truth).mean()),
+            "detected_non_contact": int((~pred).sum()),
+            "detected_right": int((~pred & ~truth).sum()),
+            "measured_found": int((~pred & ~truth).sum()),
+            "false_non_contact": int((~pred & truth).sum()),
+            "missed_non_contact": int((pred & ~truth).sum()),
+        }
+    saved = times["position"] - times["dynamic"]
+    with_miss = ~truth.all(axis=1)
+    out["decision_saved_s"] = {
+        "all": _stats(saved),
+        "grasps_with_non_contact_finger": _stats(saved[with_miss]),
+    }
+    out["_saved"] = saved
+    out["_with_miss"] = with_miss
+    return out
+
+
+def _stats(values: np.ndarray) -> dict[str, float]:
+    if values.size == 0:
+        return {"n": 0}
+    return {
+        "n": int(values.size),
+        "median": float(np.median(values)),
+        "mean": float(values.mean()),
+        "share_over_0_5_s": float((values > 0.5).mean()),
+        "share_over_0": float((values > 0).mean()),
+    }
+
+
+def centred(record) -> bool:
+    return abs(record.pose.offset[0]) * 1000.0 <= CENTRED_MM + 1e-9
+
+
+def svm_scores(records: Sequence, seeds: Sequence[int] = (0, 1, 2), test_fraction: float = 0.3):
+    """SVM, SVM_pos and SVM_dyn (signature + svm, ``correction`` none / position / dynamic) on
+    the same held-out splits: mean accuracy overall, on centred and on off-centre objects,
+    and the first split's confusion matrices."""
+    from .reports import class_order, confusion_matrix
+    from .workflow import labels_of, predict, split, train
+
+    scores: dict[str, Any] = {}
+    matrices: dict[str, Any] = {}
+    for correction in ("none", "position", "dynamic"):
+        acc = {"all": [], "centred": [], "off_centre": []}
+        for k, seed in enumerate(seeds):
+            tr, te = split(records, test_fraction, seed)
+            model = train(tr, "signature", "svm", None, {"correction": correction})
+            y, p = labels_of(te), predict(model, te)
+            mid = np.array([centred(r) for r in te])
+            acc["all"].append(float(np.mean(p == y)))
+            for key, mask in (("centred", mid), ("off_centre", ~mid)):
+                if mask.any():
+                    acc[key].append(float(np.mean(p[mask] == y[mask])))
+                if k == 0 and correction != "none":
+                    classes = class_order([str(c) for c in model.classes], y)
+                    cm = confusion_matrix(y[mask], p[mask], classes)
+                    matrices[f"{correction}_{key}"] = (np.asarray(cm).tolist(), classes)
+        scores[correction] = {
+            k: {"mean": float(np.mean(v)), "per_split": v} if v else None for k, v in acc.items()
+        }
+    scores["held_out_fraction"] = test_fraction
+    scores["splits"] = list(seeds)
+    return scores, matrices
+
+
+def dtw_scores(records: Sequence, correction: str = "dynamic") -> dict[str, Any]:
+    """DTW distances of raw and corrected signatures to their own pattern and to the others
+    (Fig 3.14), and the training-free identification rate of each."""
+    from ..perception.patterns import closest_in_size, signature_distance, size_matched_library
+    from ..perception.temporal import corrected_signature, identify_masked
+
+    lib = size_matched_library()
+    out: dict[str, Any] = {}
+    dropped = np.array([not detect(r, correction).contact_mask.all() for r in records])
+    for label, method in (("raw", "none"), ("corrected", correction)):
+        own, other, right = [], [], []
+        for r in records:
+            keep = np.ones(4, bool) if method == "none" else detect(r, method).contact_mask
+            ident, keep = identify_masked(r.fci_angles(), keep)
+            right.append(ident.name == r.shape)
+            sig = corrected_signature(r.fci_angles(), keep)
+            use = lib
+            if r.shape not in use:
+                continue
+            for name, family in use.items():
+                d = signature_distance(sig, closest_in_size(sig, family))
+                (own if name == r.shape else other).append(d)
+        right = np.array(right, dtype=bool)
+        out[label] = {
+            "identified": float(np.mean(right)) if right.size else None,
+            "identified_where_a_finger_was_dropped": (
+                float(np.mean(right[dropped])) if dropped.any() else None
+            ),
+            "own_median": float(np.median(own)) if own else None,
+            "other_median": float(np.median(other)) if other else None,
+            "_own": own,
+            "_other": other,
+        }
+    out["correction"] = correction
+    out["grasps_with_a_finger_dropped"] = int(dropped.sum())
+    return out
+
+
+def run_experiment(
+    records: Sequence, out: str | os.PathLike, force: bool = False, example: int | None = None
+) -> dict[str, Any]:
+    """Every figure and the JSON summary of chapter 3 for ``records`` into ``out``."""
+    from ..perception.temporal import record_series
+    from . import figures_temporal as figs
+    from .reports import write_json
+
+    folder = check_outputs(out, force)
+    records = list(records)
+    if not records:
+        raise UsageError("no grasp records to analyse")
+    for r in records:
+        record_series(r)  # every record needs its time series: refuse before the work
+    det = detector_scores(records)
+    saved, with_miss = det.pop("_saved"), det.pop("_with_miss")
+    if example is None:
+        missing = np.flatnonzero(with_miss)
+        example = int(missing[0]) if missing.size else 0
+    if not 0 <= example < len(records):
+        raise UsageError(f"--example must be from 0 to {len(records) - 1}, got {example}")
+    rec = records[example]
+    image = g_of(rec)
+    binary = gbin(image)
+    figs.plot_g_gbin(image, binary, finger_areas(image, binary), rec, folder / FIGURES[0])
+    figs.plot_detectors(det, folder / FIGURES[1])
+    figs.plot_saved(saved, with_miss, folder / FIGURES[2])
+    doc: dict[str, Any] = {"records": len(records), "example_record": example, "detectors": det}
+    shapes = {r.shape for r in records}
+    if len(shapes) >= 2 and len(records) >= 4 * len(shapes):
+        svm, matrices = svm_scores(records)
+        doc["svm"] = svm
+        for key, (cm, classes) in matrices.items():
+            method, where = key.split("_", 1)
+            name = f"confusion_svm_{method}_{where}.png"
+            figs.plot_confusion_matrix(cm, classes, folder / name, f"SVM_{method[:3]}, {where}")
+    else:
+        doc["svm"] = None
+    dtw = dtw_scores(records)
+    figs.plot_dtw(dtw, folder / FIGURES[-1])
+    doc["dtw"] = {k: ({kk: vv for kk, vv in v.items() if not kk.startswith("_")}
+                      if isinstance(v, dict) else v) for k, v in dtw.items()}  # fmt: skip
+    doc["outputs"] = [str(p) for p in output_paths(folder) if p.exists() or p.name == SUMMARY]
+    write_json(folder / SUMMARY, doc)
+    return doc
+
+
+def summary_text(doc: dict[str, Any]) -> str:
+    """What ``tactile-bullet temporal`` prints without --json."""
+    det = doc["detectors"]
+    lines = [
+        f"{doc['records']} grasps, {det['fingers']} fingers, "
+        f"{det['measured_non_contact']} of them out of contact at the end",
+    ]
+    for m in DETECTORS:
+        d = det[m]
+        lines.append(
+            f"  {m:8s}: {100 * d['agreement']:.1f}% per-finger agreement with the contacts "
+            f"({d['detected_non_contact']} flagged, {d['false_non_contact']} wrongly; "
+            f"{d['missed_non_contact']} missed)"
+        )
+    s = det["decision_saved_s"]["grasps_with_non_contact_finger"]
+    if s.get("n"):
+        lines.append(
+            f"  dynamic decides {s['median']:.2f} s earlier (median over {s['n']} grasps with a "
+            f"finger off the object; {100 * s['share_over_0_5_s']:.0f}% save > 0.5 s)"
+        )
+    if doc.get("svm"):
+        for c, label in (("none", "SVM"), ("position", "SVM_pos"), ("dynamic", "SVM_dyn")):
+            v = doc["svm"][c]
+            parts = [f"{k} {100 * v[k]['mean']:.1f}%" for k in ("all", "centred", "off_centre")
+                     if v.get(k)]  # fmt: skip
+            lines.append(f"  {label:8s}: " + ", ".join(parts))
+    d = doc["dtw"]
+    lines.append(
+        f"  training-free DTW: {100 * d['raw']['identified']:.1f}% raw, "
+        f"{100 * d['corrected']['identified']:.1f}% corrected ({d['correction']})"
+    )
+    lines.append(f"wrote {len(doc['outputs'])} files")
+    return "\n".join(lines) + "\n"

@@ -1,0 +1,556 @@
+"""The user's workflow on top of the registry: train, evaluate, compare, identify, demo.
+
+Every function takes and returns plain objects (records, models, JSON-ready dicts) so the CLI
+is a thin layer over them and scripts can call them directly. Descriptors and classifiers are
+looked up by name in the plugin registry, so a third-party plugin joins every step for free.
+"""
+
+from __future__ import annotations
+
+import os
+import time
+from collections.abc import Callable, Iterable, Mapping, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from ..datasets.bulk import GraspSpec, check_record_folder, save_records, simulate_many
+from ..errors import UsageError
+from ..records import GraspRecord, Pose
+
+DEMO_SHAPES: tuple[str, ...] = ("cone", "torus", "sphere", "hyperboloid", "cylinder")
+"""The thesis' five test shapes."""
+
+
+def _demo_classifiers() -> tuple[str, ...]:
+    """Classifiers the demo compares on the signature: the ones that train in seconds, with
+    the neural forest where torch is installed (the ``torch`` extra)."""
+    import importlib.util
+
+    names = ("svm", "knn", "som", "dtw-template")
+    return names + (("neural-forest",) if importlib.util.find_spec("torch") else ())
+
+
+DEMO_CLASSIFIERS: tuple[str, ...] = _demo_classifiers()
+
+MIN_TRAIN_PER_SHAPE = 2
+""":func:`compare` trains every classifier on the same set: each shape needs two grasps (the
+svm's calibration folds need two), checked before any pair is fitted."""
+
+LATENCY_SAMPLES = 20
+"""Single-grasp predictions timed per pair in :func:`compare` (the median is reported)."""
+
+
+# --- data ---------------------------------------------------------------------------------------
+
+
+def records_from(path: str | os.PathLike, allow_partial: bool = False) -> list[GraspRecord]:
+    """Every record of a dataset folder (manifest and shards), of a folder of ``.npz`` records,
+    or of one ``.npz`` record file. Damaged data (a shard that fails its checksum, a shard
+    missing or never generated, an unreadable record file) is an error naming it, unless
+    ``allow_partial``: then it is skipped with a
+    :class:`~tactile_bullet.datasets.dataset.PartialDataWarning` saying how many records were
+    left out (:func:`tactile_bullet.datasets.dataset.read_records` returns them as data)."""
+    from ..datasets.dataset import read_records
+
+    loaded = read_records(path, allow_partial)
+    loaded.warn()
+    return loaded.records
+
+
+def labels_of(records: Sequence[GraspRecord]) -> np.ndarray:
+    """True shape names, the classifiers' targets."""
+    return np.array([r.shape for r in records], dtype=object).astype(str)
+
+
+def _checked(records: Iterable[GraspRecord], what: str) -> list[GraspRecord]:
+    records = list(records)
+    if not records:
+        raise UsageError(f"the {what} set holds no grasp records")
+    return records
+
+
+def split(
+    records: Sequence[GraspRecord], test_fraction: float = 0.3, seed: int = 0
+) -> tuple[list[GraspRecord], list[GraspRecord]]:
+    """Seeded split stratified by shape: every shape keeps its share in both halves."""
+    from sklearn.model_selection import train_test_split
+
+    records = _checked(records, "data")
+    if not 0.0 < test_fraction < 1.0:
+        raise UsageError(f"test fraction must be between 0 and 1, got {test_fraction}")
+    y = labels_of(records)
+    names, counts = np.unique(y, return_counts=True)
+    if len(names) < 2:
+        raise UsageError(f"the data holds a single shape ({names[0]}): nothing to tell apart")
+    if counts.min() < 2:
+        raise UsageError(
+            f"shape {str(names[counts.argmin()])!r} has only one record: a split needs at least two"
+        )
+    n_test = max(len(names), int(round(test_fraction * len(records))))
+    if len(records) - n_test < len(names):
+        raise UsageError(f"{len(records)} records are too few to split over {len(names)} shapes")
+    idx_train, idx_test = train_test_split(
+        np.arange(len(records)), test_size=n_test, stratify=y, random_state=seed
+    )
+    return [records[i] for i in sorted(idx_train)], [records[i] for i in sorted(idx_test)]
+
+
+# --- train / evaluate / identify ----------------------------------------------------------------
+
+
+def train(
+    records: Iterable[GraspRecord],
+    descriptor: str = "signature",
+    classifier: str = "svm",
+    params: Mapping[str, Any] | None = None,
+    descriptor_params: Mapping[str, Any] | None = None,
+):
+    """Fit ``classifier`` (with estimator ``params``) on ``descriptor`` features of the records.
+
+    Returns a :class:`tactile_bullet.learn.models.Model` that remembers both names and
+    parameters, so a saved model rebuilds the same features when it is loaded elsewhere."""
+    from ..learn.models import Model
+    from ..plugins import get_descriptor
+
+    records = _checked(records, "training")
+    y = labels_of(records)
+    if len(set(y)) < 2:
+        raise UsageError(f"training needs at least two shapes, the data holds only {y[0]!r}")
+    desc = get_descriptor(descriptor, **dict(descriptor_params or {}))
+    estimator = _estimator(classifier, params)  # names and parameters checked before work
+    reason = _incompatible(desc.name, classifier)
+    if reason:
+        raise UsageError(f"cannot train {classifier} on the {desc.name} descriptor: {reason}")
+    estimator = _fit(estimator, classifier, bool(params), desc.transform(records), y)
+    return Model(
+        descriptor=desc.name,
+        descriptor_params=dict(desc.params),
+        classifier=classifier,
+        classifier_params=dict(params or {}),
+        estimator=estimator,
+    )
+
+
+def _estimator(classifier: str, params: Mapping[str, Any] | None):
+    from ..plugins import get_classifier
+
+    try:
+        return get_classifier(classifier, **dict(params or {}))
+    except TypeError as exc:
+        raise UsageError(f"classifier {classifier!r} rejected its parameters: {exc}") from None
+
+
+def _fit(estimator, classifier: str, user_params: bool, features: np.ndarray, y: np.ndarray):
+    """Fit, blaming the user's parameters (UsageError) when the estimator rejects them."""
+    try:
+        return estimator.fit(features, y)
+    except (ValueError, TypeError) as exc:
+        first = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
+        if user_params:
+            raise UsageError(
+                f"classifier {classifier!r} rejected its parameters: {first}"
+            ) from None
+        if isinstance(exc, TypeError):
+            raise
+        # scikit-learn's convention: fit raises ValueError for data it cannot learn from
+        # (too few samples of a class, ...): the user's data, not a bug
+        raise UsageError(
+            f"classifier {classifier!r} cannot be trained on this data: {first}"
+        ) from None
+
+
+def predict(model, records: Sequence[GraspRecord]) -> np.ndarray:
+    """Shape names the model gives the records."""
+    return np.asarray(model.predict_records(list(records))).astype(str)
+
+
+def evaluate(model, records: Iterable[GraspRecord]) -> dict[str, Any]:
+    """Score a model on labelled records: the ``evaluate --json`` document (docs/json.md)
+    with accuracy by object size and by position, and which model was scored."""
+    from .reports import class_order, evaluation_report
+
+    records = _checked(records, "test")
+    y_true = labels_of(records)
+    known = [str(c) for c in model.classes]
+    if not set(y_true) & set(known):
+        raise UsageError(
+            f"the data's shapes ({', '.join(sorted(set(y_true)))}) are none of the model's "
+            f"classes ({', '.join(known)})"
+        )
+    y_pred = predict(model, records)
+    doc = evaluation_report(y_true, y_pred, class_order(known, y_true), records)
+    unknown = sorted(set(y_true) - set(known))
+    if unknown:
+        doc["unknown_classes"] = unknown
+    from ..perception.contact import nothing_to_identify
+
+    # scored like every grasp (a model answers them all), but counted: a grasp that touched
+    # nothing carries no shape, and `identify` names none
+    doc["no_contact"] = sum(nothing_to_identify(r) is not None for r in records)
+    doc["model"] = describe_model(model)
+    return doc
+
+
+def describe_model(model) -> dict[str, Any]:
+    return {
+        "descriptor": model.descriptor,
+        "descriptor_params": dict(model.descriptor_params),
+        "classifier": model.classifier,
+        "classifier_params": dict(model.classifier_params),
+        "classes": [str(c) for c in model.classes],
+    }
+
+
+def identify(model, record: GraspRecord) -> dict[str, Any]:
+    """Name the shape of one grasp: ``{"shape", "probabilities": {class: p}}``; a grasp
+    that touched too little gets no name: ``{"shape": None, "reason", "probabilities": {}}``
+    (:mod:`tactile_bullet.perception.contact`)."""
+    from ..perception.contact import nothing_to_identify
+
+    reason = nothing_to_identify(record)
+    if reason is not None:
+        return {"shape": None, "reason": reason, "probabilities": {}}
+    classes = [str(c) for c in model.classes]
+    names, proba = model.predict_with_proba([record])
+    shape = str(names[0])
+    if proba is None:
+        probabilities = {c: float(c == shape) for c in classes}
+    else:
+        probabilities = {c: float(p) for c, p in zip(classes, proba[0], strict=True)}
+    return {"shape": shape, "probabilities": probabilities}
+
+
+# --- compare ------------------------------------------------------------------------------------
+
+
+def compare(
+    train_records: Iterable[GraspRecord],
+    test_records: Iterable[GraspRecord] | None = None,
+    descriptors: Sequence[str] = ("signature",),
+    classifiers: Sequence[str] = ("svm",),
+    seed: int = 0,
+    test_fraction: float = 0.3,
+    on_pair: Callable[[dict[str, Any]], None] | None = None,
+) -> list[dict[str, Any]]:
+    """Accuracy and cost of every descriptor x classifier pair on the same train/test data.
+
+    Without ``test_records`` the training records are split (seeded, stratified by shape).
+    ``fit_time_s`` is the classifier's fit on precomputed features; ``predict_latency_ms`` the
+    median time to identify one grasp from its record (descriptor plus prediction), the figure
+    that matters on a robot. A pair that cannot work together (``dtw-template`` on anything but
+    the signature) is listed with ``accuracy`` None and the reason under ``skipped``."""
+    from ..plugins import get_descriptor
+
+    train_records = _checked(train_records, "training")
+    if test_records is None:
+        train_records, test_records = split(train_records, test_fraction, seed)
+    test_records = _checked(test_records, "test")
+    if not descriptors or not classifiers:
+        raise UsageError("compare needs at least one descriptor and one classifier")
+    y_train, y_test = labels_of(train_records), labels_of(test_records)
+    if len(set(y_train)) < 2:
+        raise UsageError("training needs at least two shapes")
+    names, counts = np.unique(y_train, return_counts=True)
+    if counts.min() < MIN_TRAIN_PER_SHAPE:
+        raise UsageError(
+            f"shape {str(names[counts.argmin()])!r} has {int(counts.min())} training grasp(s); "
+            f"compare needs at least {MIN_TRAIN_PER_SHAPE} per shape (more data, or --test)"
+        )
+    # resolve every name up front so a typo fails before minutes of fitting
+    descs = [get_descriptor(d) for d in descriptors]
+    _check_classifiers(classifiers)
+    rows = []
+    for desc in descs:
+        x_train, x_test = desc.transform(train_records), desc.transform(test_records)
+        for name in classifiers:
+            reason = _incompatible(desc.name, name)
+            if reason:
+                rows.append(_skipped_row(desc.name, name, reason, train_records, test_records))
+                continue
+            start = time.perf_counter()
+            estimator = _fit(_estimator(name, None), name, False, x_train, y_train)
+            fit_time = time.perf_counter() - start
+            y_pred = np.asarray(estimator.predict(x_test)).astype(str)
+            row = {
+                "descriptor": desc.name,
+                "classifier": name,
+                "accuracy": float(np.mean(y_pred == y_test)),
+                "fit_time_s": fit_time,
+                "predict_latency_ms": _latency_ms(desc, estimator, test_records),
+                "train_records": len(train_records),
+                "test_records": len(test_records),
+            }
+            rows.append(row)
+            if on_pair is not None:
+                on_pair(row)
+    return rows
+
+
+def _incompatible(descriptor: str, classifier: str) -> str | None:
+    """Why a classifier cannot read a descriptor's features (``dtw-template`` reads only the
+    signature), or None when it can."""
+    from .. import plugins
+
+    accepted = plugins.accepted_descriptors(classifier)
+    if accepted is None or descriptor in accepted:
+        return None
+    return f"{classifier} reads only the {' or '.join(accepted)} descriptor"
+
+
+def _skipped_row(descriptor, classifier, reason, train_records, test_records) -> dict[str, Any]:
+    return {
+        "descriptor": descriptor,
+        "classifier": classifier,
+        "accuracy": None,
+        "fit_time_s": None,
+        "predict_latency_ms": None,
+        "train_records": len(train_records),
+        "test_records": len(test_records),
+        "skipped": reason,
+    }
+
+
+def _check_classifiers(names: Sequence[str]) -> None:
+    from ..plugins import get_classifier
+
+    for name in names:
+        get_classifier(name)
+
+
+def _latency_ms(desc, estimator, records: Sequence[GraspRecord]) -> float:
+    times = []
+    for rec in list(records)[:LATENCY_SAMPLES]:
+        start = time.perf_counter()
+        estimator.predict(desc.transform([rec]))
+        times.append(time.perf_counter() - start)
+    return 1000.0 * float(np.median(times))
+
+
+# --- demo ---------------------------------------------------------------------------------------
+
+TRAIN_FRACTIONS: tuple[float, ...] = (0.0, 0.25, 0.5, 0.75, 1.0)
+"""Relative sizes (in each parameter's valid range) the demo trains on."""
+TEST_FRACTIONS: tuple[float, ...] = (0.125, 0.375, 0.625, 0.875)
+"""Relative sizes it tests on: interleaved with the training ones, never equal to them."""
+TRAIN_OFFSETS: tuple[tuple[float, float, float], ...] = (
+    (-0.010, 0.0, -0.005), (0.0, 0.0, -0.005), (0.010, 0.0, -0.005),
+    (-0.010, 0.0, 0.005), (0.0, 0.0, 0.005), (0.010, 0.0, 0.005),
+)  # fmt: skip
+"""Object offsets (m) seen in training: +-10 mm along O-O', +-5 mm along the fingers."""
+TEST_OFFSETS: tuple[tuple[float, float, float], ...] = (
+    (-0.005, 0.0, 0.0),
+    (0.005, 0.0, 0.0),
+    (0.0, 0.0, 0.0),
+    (0.005, 0.0, 0.0025),
+)
+"""Offsets tested: between the training ones, none equal to any of them."""
+
+DEMO_REPORT_FILES: tuple[str, ...] = ("signatures.png", "comparison.json", "demo.json")
+"""What the demo writes into ``report/`` besides the evaluation report."""
+
+
+def draw_specs(
+    shape: str,
+    n: int,
+    fractions: Sequence[float],
+    offsets: Sequence[tuple[float, float, float]],
+    rng: np.random.Generator,
+) -> list[GraspSpec]:
+    """``n`` grasps of a built-in shape, each parameter at a relative size drawn from
+    ``fractions`` of its valid range, at an offset drawn from ``offsets``; combinations the
+    shape refuses (a torus whose hole would close) are drawn again."""
+    from ..objects.shapes import BUILTIN_SHAPES
+
+    spec = next(s for s in BUILTIN_SHAPES if s.name == shape)
+    out = []
+    for _ in range(n):
+        for _attempt in range(100):
+            given = {
+                k: p.min + float(rng.choice(fractions)) * (p.max - p.min)
+                for k, p in spec.params.items()
+            }
+            try:
+                values = spec.resolve(given)
+                break
+            except UsageError:
+                continue
+        else:  # pragma: no cover - every built-in shape has valid combinations
+            raise UsageError(f"no valid size of {shape} among the demo's fractions")
+        offset = offsets[int(rng.integers(len(offsets)))]
+        out.append(GraspSpec(shape, values, Pose(offset), int(rng.integers(2**31 - 1))))
+    return out
+
+
+@dataclass
+class SimulatedSet:
+    """Records of a demo set and what was lost on the way."""
+
+    records: list[GraspRecord]
+    refused: list[str]
+    """Poses the simulator refused (the object would overlap the open hand)."""
+    no_contact: int
+    """Grasps that touched nothing: no shape information, left out."""
+
+
+def simulate_set(
+    per_shape: int,
+    fractions: Sequence[float],
+    offsets: Sequence[tuple[float, float, float]],
+    rng: np.random.Generator,
+    workers: int = 1,
+    show: bool = False,
+    desc: str = "grasps",
+    shapes: Sequence[str] = DEMO_SHAPES,
+    rounds: int = 3,
+) -> SimulatedSet:
+    """``per_shape`` usable grasps of each shape where possible: a refused pose or a grasp
+    without contact is replaced by a fresh draw, for up to ``rounds`` rounds, so every shape
+    keeps its share of the set."""
+    wanted = {name: per_shape for name in shapes}
+    kept: dict[str, list[GraspRecord]] = {name: [] for name in shapes}
+    refused: list[str] = []
+    no_contact = 0
+    for _ in range(rounds):
+        specs = [
+            s for name, n in wanted.items() for s in draw_specs(name, n, fractions, offsets, rng)
+        ]
+        if not specs:
+            break
+        records, failures = simulate_many(specs, workers, show, desc)
+        refused += failures
+        for rec in records:
+            if "no_contact" in rec.flags:
+                no_contact += 1
+                continue
+            kept[rec.shape].append(rec)
+        wanted = {name: per_shape - len(kept[name]) for name in shapes}
+    return SimulatedSet([r for name in shapes for r in kept[name]], refused, no_contact)
+
+
+def demo(
+    out: str | os.PathLike = "tactile-bullet-demo",
+    seed: int = 0,
+    train_per_shape: int = 24,
+    test_per_shape: int = 12,
+    workers: int = 2,
+    classifiers: Sequence[str] = DEMO_CLASSIFIERS,
+    show: bool = False,
+    log: Callable[[str], None] | None = None,
+    force: bool = False,
+) -> dict[str, Any]:
+    """The first thing to run: simulate a training set and a held-out test set of the five
+    thesis shapes (test sizes and offsets never seen in training), train signature + SVM,
+    score it, compare the other cheap classifiers, and write a report folder.
+
+    ``out`` receives ``train/`` and ``test/`` (the simulated records), ``model.npz`` (the
+    signature + SVM model) and ``report/`` (report.json, confusion matrix, accuracy by size and
+    position, example signatures, comparison.json, demo.json). Outputs of an earlier demo
+    there are refused unless ``force``; nothing is ever deleted."""
+    from ..files import existing_outputs
+    from ..learn.models import save_model
+    from .reports import (
+        REPORT_FILES,
+        plot_signatures,
+        report_dir,
+        write_evaluation_report,
+        write_json,
+    )
+
+    say = log or (lambda _msg: None)
+    if train_per_shape < 2 or test_per_shape < 1:
+        raise UsageError("the demo needs at least 2 training and 1 test grasp per shape")
+    out = Path(out)
+    if out.exists() and not out.is_dir():
+        raise UsageError(f"report path {out} exists and is not a directory")
+    n = len(DEMO_SHAPES)
+    planned = {"train": n * train_per_shape, "test": n * test_per_shape}
+    for name, size in planned.items():
+        check_record_folder(out / name, size, force)
+    existing_outputs(out, ("model.npz",), "--out", force)
+    existing_outputs(out / "report", REPORT_FILES + DEMO_REPORT_FILES, "--out", force)
+    out = report_dir(out)
+    report = report_dir(out / "report")
+    started = time.perf_counter()
+    rng = np.random.default_rng(seed)
+    say(f"simulating {len(DEMO_SHAPES) * train_per_shape} training grasps ({workers} workers)")
+    train_set = simulate_set(
+        train_per_shape, TRAIN_FRACTIONS, TRAIN_OFFSETS, rng, workers, show, "train grasps"
+    )
+    say(f"simulated {len(train_set.records)} training grasps; now the test set at unseen sizes")
+    test_set = simulate_set(
+        test_per_shape, TEST_FRACTIONS, TEST_OFFSETS, rng, workers, show, "test grasps"
+    )
+    train_records, test_records = train_set.records, test_set.records
+    sim_time = time.perf_counter() - started
+    if len({r.shape for r in train_records}) < 2 or not test_records:
+        raise UsageError("too few grasps could be simulated to train and test a model")
+    # the grasps are the expensive part: on disk before any learning, for reuse with
+    # `train --data OUT/train` and `evaluate --data OUT/test`
+    save_records(train_records, out / "train", force)
+    save_records(test_records, out / "test", force)
+
+    model = train(train_records, "signature", "svm")
+    model.info.update({"made_by": "demo", "seed": int(seed), "train_records": len(train_records)})
+    model_path = save_model(out / "model.npz", model)
+    result = evaluate(model, test_records)
+    comparison = compare(
+        train_records, test_records, ("signature",), [c for c in classifiers], seed=seed
+    )
+    write_evaluation_report(result, report)
+    plot_signatures(train_records, report / "signatures.png")
+    write_json(report / "comparison.json", comparison)
+    doc = {
+        "accuracy": result["accuracy"],
+        "classes": result["classes"],
+        "confusion_matrix": result["confusion_matrix"],
+        "per_class": result["per_class"],
+        "by_size": result.get("by_size", {}),
+        "by_position": result.get("by_position", {}),
+        "by_rotation": result.get("by_rotation", {}),
+        "train_records": len(train_records),
+        "test_records": len(test_records),
+        "refused_poses": len(train_set.refused) + len(test_set.refused),
+        "no_contact": train_set.no_contact + test_set.no_contact,
+        "report": str(report),
+        "model": str(model_path),
+        "data": {"train": str(out / "train"), "test": str(out / "test")},
+        "comparison": comparison,
+        "seed": int(seed),
+        "simulation_time_s": sim_time,
+        "wall_time_s": time.perf_counter() - started,
+    }
+    write_json(report / "demo.json", doc)
+    return doc
+
+
+def demo_text(doc: Mapping[str, Any]) -> str:
+    """What ``demo`` prints on a terminal."""
+    from .reports import confusion_text
+
+    lines = [
+        f"trained signature + svm on {doc['train_records']} grasps; tested on "
+        f"{doc['test_records']} grasps at sizes and offsets not seen in training",
+        "",
+        confusion_text(doc["confusion_matrix"], doc["classes"]),
+        "",
+        f"accuracy (signature + svm): {100 * doc['accuracy']:.1f}%",
+    ]
+    for row in doc.get("comparison", []):
+        if row.get("accuracy") is None:
+            continue
+        lines.append(
+            f"  {row['descriptor']} + {row['classifier']}: {100 * row['accuracy']:.1f}% "
+            f"(fit {row['fit_time_s']:.2f} s, {row['predict_latency_ms']:.2f} ms per grasp)"
+        )
+    if doc.get("refused_poses") or doc.get("no_contact"):
+        lines.append(
+            f"replaced by fresh draws: {doc['refused_poses']} poses the simulator refused "
+            f"(object overlapping the open hand), {doc['no_contact']} grasps without contact"
+        )
+    lines.append(f"report: {doc['report']}  model: {doc['model']}")
+    lines.append(f"grasps: {doc['data']['train']} (train), {doc['data']['test']} (test)")
+    lines.append(f"wall time: {doc['wall_time_s']:.0f} s")
+    return "\n".join(lines) + "\n"

@@ -1,0 +1,26 @@
+"""The built-in descriptors, registered as a default plugin exactly as a third party's are.
+
+Kept apart from the descriptor modules so that none of them imports another only to register
+it (``descriptors`` <-> ``time_series`` was a loop): this module sits above them all.
+"""
+
+from __future__ import annotations
+
+from ..hookspecs import hookimpl
+
+
+@hookimpl
+def register_descriptors(register):
+    from .descriptors import ContactNormalsDescriptor, RawJointsDescriptor, SignatureDescriptor
+    from .robust import RobustJointsDescriptor, RobustSignatureDescriptor
+    from .time_series import TimeSeriesDescriptor
+
+    for descriptor in (
+        SignatureDescriptor,
+        RawJointsDescriptor,
+        ContactNormalsDescriptor,
+        TimeSeriesDescriptor,
+        RobustSignatureDescriptor,
+        RobustJointsDescriptor,
+    ):
+        register(descriptor.name, descriptor)

@@ -1,0 +1,64 @@
+"""Built-in plugin: registers ``svm``, ``knn``, ``som``, ``dtw-template``, ``shape-fit``
+(training-free, on ``raw-joints``), ``tcn`` (on the ``time-series`` descriptor) and, when its
+module is present, ``neural-forest``. Factories import their estimator on first use, so loading
+the registry does not import scikit-learn."""
+
+from __future__ import annotations
+
+import importlib.util
+
+from ...hookspecs import hookimpl
+
+
+def svm(**params):
+    from .svm import SVMClassifier
+
+    return SVMClassifier(**params)
+
+
+def knn(**params):
+    from .knn import KNNClassifier
+
+    return KNNClassifier(**params)
+
+
+def som(**params):
+    from .som import SOMClassifier
+
+    return SOMClassifier(**params)
+
+
+def dtw_template(**params):
+    from .dtw_template import DTWTemplateClassifier
+
+    return DTWTemplateClassifier(**params)
+
+
+def shape_fit(**params):
+    from .shape_fit import ShapeFitClassifier
+
+    return ShapeFitClassifier(**params)
+
+
+def neural_forest(**params):
+    from ..neural_forest import NeuralForestClassifier
+
+    return NeuralForestClassifier(**params)
+
+
+def tcn(**params):
+    from .tcn import TCNClassifier
+
+    return TCNClassifier(**params)
+
+
+@hookimpl
+def register_classifiers(register):
+    register("svm", svm)
+    register("knn", knn)
+    register("som", som)
+    register("dtw-template", dtw_template)
+    register("tcn", tcn)
+    register("shape-fit", shape_fit)
+    if importlib.util.find_spec("tactile_bullet.learn.neural_forest") is not None:
+        register("neural-forest", neural_forest)

@@ -1,0 +1,100 @@
+"""``shape-fit``: the second training-free identifier (``shape_fit.fit_shape``) as an estimator.
+
+Each class must be a registered shape with a radius profile; a grasp goes to the class whose
+family, fitted in size and position to the grasp's absolute J3 and J1 + J2 angles, scores best.
+``fit`` learns nothing: it records the classes, so the estimator is a fair training-free
+baseline in ``compare`` and ``train``. It reads the ``raw-joints`` descriptor's columns (with or
+without the thumb), or ``robust-joints`` (the same columns zeroed on the open hand, the input
+to use on a real hand), and nothing else.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from sklearn.base import BaseEstimator, ClassifierMixin
+from sklearn.utils.multiclass import check_classification_targets
+from sklearn.utils.validation import check_is_fitted, validate_data
+
+from ...hand import LONG_FINGERS
+from ..descriptors import raw_joint_names
+from .dtw_template import _GENERIC_FIT_CHECKS
+
+_ANY_FIT = (
+    "shape-fit reads only the raw-joints layout's columns of registered shape classes; "
+    "this check fits it on a generic matrix with integer labels"
+)
+
+
+def _fci_columns(n_features: int) -> np.ndarray:
+    """(3, 4) column indices of J3, J2, J1 per long finger in the raw-joints layout."""
+    for thumb in (False, True):
+        names = raw_joint_names(thumb)
+        if len(names) == n_features:
+            return np.array(
+                [[names.index(f"{f.upper()}J{j}") for f in LONG_FINGERS] for j in (3, 2, 1)]
+            )
+    raise ValueError(
+        f"shape-fit expects the raw-joints descriptor's {len(raw_joint_names(False))} or "
+        f"{len(raw_joint_names(True))} columns, got {n_features}"
+    )
+
+
+class ShapeFitClassifier(ClassifierMixin, BaseEstimator):
+    """Best penalised fit of each class's shape family to the absolute joint angles.
+
+    Parameters: ``temperature`` turns fit scores into probabilities, p ~ exp(-score / T).
+    Fitted attributes: ``classes_``.
+    """
+
+    required_descriptor = "raw-joints"
+    """The descriptor whose columns this classifier understands."""
+    accepted_descriptors = ("robust-joints",)
+    """Same columns, read zeroed on the open hand (``learn/robust.py``): a per-joint calibration
+    bias, which the fit would otherwise take for a shape, is gone before the fit."""
+
+    def __init__(self, temperature=1.0):
+        self.temperature = temperature
+
+    def expected_failed_checks(self) -> dict[str, str]:
+        """scikit-learn checks that cannot apply, with the reason (see tests)."""
+        return dict.fromkeys(_GENERIC_FIT_CHECKS, _ANY_FIT)
+
+    def fit(self, X, y):
+        X, y = validate_data(self, X, y)
+        check_classification_targets(y)
+        _fci_columns(X.shape[1])
+        if not (np.isfinite(self.temperature) and self.temperature > 0):
+            raise ValueError(f"temperature must be a positive number, got {self.temperature!r}")
+        from ...perception import shape_fit
+
+        self.classes_ = np.unique(y)
+        for label in self.classes_:
+            if str(label) not in shape_fit.fitted_shapes():
+                raise ValueError(
+                    f"shape-fit has no model of class {label!r}: classes must be shape names "
+                    f"({', '.join(shape_fit.fitted_shapes())})"
+                )
+        return self
+
+    def scores(self, X) -> np.ndarray:
+        """(n, n_classes) penalised fit scores (lower is better)."""
+        check_is_fitted(self)
+        X = validate_data(self, X, reset=False)
+        from ...perception import shape_fit
+
+        cols = _fci_columns(X.shape[1])
+        names = [str(c) for c in self.classes_]
+        out = np.empty((len(X), len(names)))
+        for row, x in enumerate(X):
+            fits = shape_fit.fit_shape(x[cols], names).fits
+            out[row] = [fits[n].score for n in names]
+        return out
+
+    def predict_proba(self, X) -> np.ndarray:
+        s = self.scores(X)
+        weights = np.exp(-(s - s.min(axis=1, keepdims=True)) / float(self.temperature))
+        return weights / weights.sum(axis=1, keepdims=True)
+
+    def predict(self, X) -> np.ndarray:
+        best = np.argmin(self.scores(X), axis=1)  # checks fitted before classes_ is read
+        return self.classes_[best]

@@ -1,0 +1,303 @@
+"""Trained models: a descriptor and a fitted classifier, saved without pickle.
+
+A model file is a ``.npz`` archive read with ``allow_pickle=False``: ``meta`` holds JSON (format,
+versions, descriptor and classifier names and parameters, classes) and the estimator is stored
+one of two ways:
+
+- **state** (``estimator_state`` JSON + ``state.<name>`` arrays): for estimators that implement
+  the :class:`StatefulEstimator` protocol (``to_state`` / ``from_state``). Loading builds a fresh
+  estimator of the *registered* classifier named in the file and calls its class's
+  ``from_state``: the file can only pick among installed classifiers, never name code.
+- **skops** (``estimator_skops`` bytes): any other scikit-learn estimator, loaded by skops with an
+  explicit trusted-type list (the registered classifier's own class, the sklearn internals in
+  ``SKLEARN_DATA_TYPES``, and the names in the class's ``trusted_types`` attribute). A file
+  holding any other type is refused.
+
+For plugin authors: a classifier whose state skops cannot represent (a torch module, a C
+handle) implements ``to_state() -> (dict of JSON values, dict of numeric numpy arrays)`` and a
+classmethod ``from_state(state, arrays) -> fitted estimator``; one that skops can store but that
+holds extra non-default types lists their qualified names in a class attribute
+``trusted_types``.
+"""
+
+from __future__ import annotations
+
+import json
+import re
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Protocol, runtime_checkable
+
+import numpy as np
+
+from .. import __version__
+from ..errors import UsageError
+from ..files import atomic_path, json_value
+
+MODEL_FORMAT = "tactile-bullet-model"
+MODEL_FORMAT_VERSION = 1
+
+SKLEARN_DATA_TYPES: frozenset[str] = frozenset(
+    {
+        "sklearn.tree._tree.Tree",
+        "sklearn.neighbors._kd_tree.KDTree",
+        "sklearn.neighbors._ball_tree.BallTree",
+        "sklearn.calibration._CalibratedClassifier",
+        "sklearn.calibration._SigmoidCalibration",
+    }
+)
+"""scikit-learn internals that hold only fitted arrays (trees, neighbour indexes, calibration
+maps) and that skops does not trust by default."""
+
+_DIST_METRIC = re.compile(r"^sklearn\.metrics\._dist_metrics\.[A-Za-z]+(32|64)$")
+"""Neighbour-index distance metrics (data-only Cython classes)."""
+
+_STATE_PREFIX = "state."
+
+
+@runtime_checkable
+class StatefulEstimator(Protocol):
+    """An estimator that saves itself as JSON plus numeric arrays (see module docstring)."""
+
+    def to_state(self) -> tuple[dict, dict[str, np.ndarray]]: ...
+
+    @classmethod
+    def from_state(cls, state: dict, arrays: dict[str, np.ndarray]) -> Any: ...
+
+
+@dataclass(eq=False)
+class Model:
+    """A descriptor (name + parameters) and the classifier fitted on its features.
+
+    ``info`` holds free JSON the trainer wants kept (data set, scores); ``software_version``
+    and ``format_version`` say what wrote the file.
+    """
+
+    descriptor: str
+    descriptor_params: dict
+    classifier: str
+    classifier_params: dict
+    estimator: Any
+    info: dict = field(default_factory=dict)
+    software_version: str = __version__
+    format_version: int = MODEL_FORMAT_VERSION
+
+    @property
+    def classes(self) -> list[str]:
+        """Class names in the column order of ``predict_proba_records``."""
+        return [str(c) for c in self.estimator.classes_]
+
+    def describe_descriptor(self):
+        """The descriptor object that turns records into this model's features."""
+        from ..plugins import get_descriptor
+
+        return get_descriptor(self.descriptor, **self.descriptor_params)
+
+    def features(self, records: Sequence) -> np.ndarray:
+        return np.asarray(self.describe_descriptor().transform(records), dtype=float)
+
+    def predict_records(self, records: Sequence) -> np.ndarray:
+        """Predicted shape names, one per record."""
+        return np.asarray(self.estimator.predict(self.features(records))).astype(str)
+
+    def predict_proba_records(self, records: Sequence) -> np.ndarray:
+        """(n, n_classes) probabilities; columns follow ``classes``."""
+        return np.asarray(self.estimator.predict_proba(self.features(records)), dtype=float)
+
+    def predict_with_proba(self, records: Sequence) -> tuple[np.ndarray, np.ndarray | None]:
+        """Predicted names and probabilities (None where the estimator gives none) from one
+        pass of the descriptor: the estimator's own decision is kept, since it can differ
+        from the probability argmax (SVC with Platt scaling)."""
+        x = self.features(records)
+        names = np.asarray(self.estimator.predict(x)).astype(str)
+        try:
+            proba = np.asarray(self.estimator.predict_proba(x), dtype=float)
+        except (AttributeError, NotImplementedError):
+            proba = None
+        return names, proba
+
+
+def _qualname(kind: type) -> str:
+    return f"{kind.__module__}.{kind.__qualname__}"
+
+
+def save_model(path: str | Path, model: Model) -> Path:
+    """Write ``model`` to ``path`` (a .npz archive) atomically; returns the path."""
+    path = Path(path)
+    est = model.estimator
+    if not hasattr(est, "classes_"):
+        raise UsageError("cannot save a model whose classifier has not been fitted")
+    meta: dict[str, Any] = {
+        "format": MODEL_FORMAT,
+        "format_version": MODEL_FORMAT_VERSION,
+        "software_version": __version__,
+        "descriptor": {"name": model.descriptor, "params": dict(model.descriptor_params)},
+        "classifier": {"name": model.classifier, "params": dict(model.classifier_params)},
+        "classes": model.classes,
+        "estimator_type": _qualname(type(est)),
+        "info": dict(model.info),
+    }
+    arrays: dict[str, np.ndarray] = {}
+    if isinstance(est, StatefulEstimator):
+        state, state_arrays = est.to_state()
+        meta["estimator_encoding"] = "state"
+        arrays["estimator_state"] = np.array(json.dumps(state, default=json_value))
+        for name, value in state_arrays.items():
+            arr = np.asarray(value)
+            if arr.dtype.kind not in "biufcU":
+                raise UsageError(
+                    f"estimator state array {name!r} has non-numeric dtype {arr.dtype}"
+                )
+            arrays[_STATE_PREFIX + name] = arr
+    else:
+        import skops.io as sio
+
+        meta["estimator_encoding"] = "skops"
+        arrays["estimator_skops"] = np.frombuffer(sio.dumps(est), dtype=np.uint8)
+    try:
+        meta_text = json.dumps(meta, default=json_value)
+    except TypeError as exc:
+        raise UsageError(f"model parameters must be plain values: {exc}") from None
+    with atomic_path(path, "model") as tmp, open(tmp, "wb") as fh:
+        np.savez_compressed(fh, meta=np.array(meta_text), **arrays)
+    return path
+
+
+def _read(path: Path) -> tuple[dict, dict[str, np.ndarray]]:
+    if not path.is_file():
+        raise UsageError(f"model file {path} does not exist")
+    try:
+        with np.load(path, allow_pickle=False) as data:
+            contents = {k: data[k] for k in data.files}
+    except Exception as exc:  # noqa: BLE001 - any unreadable file is the user's input
+        raise UsageError(f"{path} is not a tactile-bullet model ({_reason(exc)})") from None
+    if "meta" not in contents:
+        raise UsageError(f"{path} is not a tactile-bullet model (no metadata)")
+    try:
+        meta = json.loads(str(contents.pop("meta")))
+    except ValueError:
+        raise UsageError(f"{path} is not a tactile-bullet model (unreadable metadata)") from None
+    if not isinstance(meta, dict) or meta.get("format") != MODEL_FORMAT:
+        raise UsageError(f"{path} is not a tactile-bullet model (wrong format marker)")
+    return meta, contents
+
+
+def _reason(exc: BaseException) -> str:
+    text = str(exc).strip().splitlines()
+    return text[0] if text else type(exc).__name__
+
+
+def _field(meta: dict, key: str, path: Path) -> tuple[str, dict]:
+    part = meta.get(key)
+    if (
+        not isinstance(part, dict)
+        or not isinstance(part.get("name"), str)
+        or not isinstance(part.get("params", {}), dict)
+    ):
+        raise UsageError(f"{path} is not a valid model: bad {key} entry")
+    return part["name"], dict(part.get("params", {}))
+
+
+def _trusted(untrusted: list[str], template: Any) -> tuple[list[str], list[str]]:
+    own = {_qualname(type(template))} | set(getattr(template, "trusted_types", ()))
+    allowed, refused = [], []
+    for name in untrusted:
+        ok = name in own or name in SKLEARN_DATA_TYPES or _DIST_METRIC.match(name)
+        (allowed if ok else refused).append(name)
+    return allowed, refused
+
+
+def load_model(path: str | Path) -> Model:
+    """Read a model written by :func:`save_model`; never runs code from the file.
+
+    Refuses (UsageError) a file that is not such a model, a newer format, a descriptor or
+    classifier that is not installed here, and an estimator holding untrusted types.
+    """
+    from .. import plugins
+
+    path = Path(path)
+    meta, contents = _read(path)
+    version = meta.get("format_version")
+    if version != MODEL_FORMAT_VERSION:
+        raise UsageError(
+            f"{path} has model format version {version!r}; this tactile-bullet "
+            f"({__version__}) reads version {MODEL_FORMAT_VERSION}"
+        )
+    descriptor, descriptor_params = _field(meta, "descriptor", path)
+    classifier, classifier_params = _field(meta, "classifier", path)
+    try:
+        plugins.get_descriptor(descriptor, **descriptor_params)
+    except UsageError as exc:
+        raise UsageError(f"{path} needs descriptor {descriptor!r}: {exc}") from None
+    try:
+        template = plugins.get_classifier(classifier, **classifier_params)
+    except UsageError as exc:
+        raise UsageError(f"{path} needs classifier {classifier!r}: {exc}") from None
+    encoding = meta.get("estimator_encoding")
+    if encoding == "state":
+        estimator = _load_state(path, contents, template)
+    elif encoding == "skops":
+        estimator = _load_skops(path, contents, template)
+    else:
+        raise UsageError(f"{path} is not a valid model: unknown estimator encoding {encoding!r}")
+    if type(estimator) is not type(template):
+        raise UsageError(
+            f"{path} holds a {_qualname(type(estimator))}, not the {classifier!r} classifier "
+            f"({_qualname(type(template))}) it names"
+        )
+    classes = [str(c) for c in getattr(estimator, "classes_", [])]
+    if classes != [str(c) for c in meta.get("classes", [])]:
+        raise UsageError(f"{path} is not a valid model: its classes do not match its metadata")
+    info = meta.get("info", {})
+    return Model(
+        descriptor=descriptor,
+        descriptor_params=descriptor_params,
+        classifier=classifier,
+        classifier_params=classifier_params,
+        estimator=estimator,
+        info=info if isinstance(info, dict) else {},
+        software_version=str(meta.get("software_version", "unknown")),
+        format_version=MODEL_FORMAT_VERSION,
+    )
+
+
+def _load_state(path: Path, contents: dict[str, np.ndarray], template: Any) -> Any:
+    kind = type(template)
+    if not callable(getattr(kind, "from_state", None)):
+        raise UsageError(f"{path}: classifier {_qualname(kind)} cannot restore a saved state")
+    try:
+        state = json.loads(str(contents["estimator_state"]))
+    except (KeyError, ValueError):
+        raise UsageError(f"{path} is not a valid model: missing estimator state") from None
+    arrays = {
+        k[len(_STATE_PREFIX) :]: v for k, v in contents.items() if k.startswith(_STATE_PREFIX)
+    }
+    try:
+        return kind.from_state(state, arrays)
+    except UsageError:
+        raise
+    except Exception as exc:  # noqa: BLE001 - a bad state is a bad file
+        raise UsageError(f"{path}: cannot restore the estimator ({_reason(exc)})") from None
+
+
+def _load_skops(path: Path, contents: dict[str, np.ndarray], template: Any) -> Any:
+    import skops.io as sio
+
+    blob = contents.get("estimator_skops")
+    if blob is None or blob.dtype != np.uint8 or blob.ndim != 1:
+        raise UsageError(f"{path} is not a valid model: missing estimator")
+    data = blob.tobytes()
+    try:
+        untrusted = sio.get_untrusted_types(data=data)
+    except Exception as exc:  # noqa: BLE001 - a corrupt payload is a bad file
+        raise UsageError(f"{path}: unreadable estimator ({_reason(exc)})") from None
+    allowed, refused = _trusted(untrusted, template)
+    if refused:
+        raise UsageError(
+            f"{path} holds types this model may not load: {', '.join(sorted(refused))}"
+        )
+    try:
+        return sio.loads(data, trusted=allowed)
+    except Exception as exc:  # noqa: BLE001
+        raise UsageError(f"{path}: cannot restore the estimator ({_reason(exc)})") from None

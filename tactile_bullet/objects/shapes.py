@@ -1,0 +1,374 @@
+"""The test shapes: one function per primitive, and a table of them.
+
+Every shape is a solid whose main axis O-O' is the x axis of its own frame (the palm's x axis
+once placed), centred on the origin. Each one gives three things:
+
+- ``mesh(**params)``: a watertight trimesh for rendering and checks;
+- ``radius(x, **params)``: the radius profile r(x) along O-O' (0 outside the solid), what a
+  finger wrapping the cross-section at x adapts to (thesis eq. 2.3, theta = s / r);
+- ``pieces(**params)``: the collision geometry for Bullet: convex vertex sets (hulls), or a
+  trimesh for an exact static triangle mesh. Convex shapes are one hull; the torus and the
+  hyperboloid are triangle meshes, so the hole and the waist stay (never the convex hull of a
+  concave solid).
+
+Sizes are in metres. Valid ranges are where the object clears the open hand and the grasp
+closes on it (both ends of every range were simulated; at the largest sphere and ovoid one
+finger can miss). Where the signature identifies the shape is narrower: see
+``docs/signature_invariance.md``.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from ..errors import UsageError
+
+if TYPE_CHECKING:
+    import trimesh
+
+SECTIONS = 48
+"""Facets around the axis: a 0.2% radius error, below Bullet's collision margin here."""
+
+
+@dataclass(frozen=True)
+class Param:
+    """One size parameter: default and valid range (SI units)."""
+
+    default: float
+    min: float
+    max: float
+    unit: str = "m"
+    doc: str = ""
+
+
+@dataclass(frozen=True)
+class Shape:
+    """A registered shape: its parameters and the functions that build it."""
+
+    name: str
+    params: Mapping[str, Param]
+    radius: Callable[..., np.ndarray]
+    mesh: Callable[..., trimesh.Trimesh]
+    pieces: Callable[..., list[np.ndarray]]
+    doc: str = ""
+    thesis: bool = True
+    """One of the five thesis test shapes (False for the modified shapes)."""
+    extent: Callable[..., float] = field(default=lambda **p: 0.0)
+    """Half-length of the solid along O-O' (m)."""
+
+    def resolve(self, given: Mapping[str, float] | None = None) -> dict[str, float]:
+        """Defaults filled in, every value checked against its range (UsageError if not)."""
+        given = dict(given or {})
+        unknown = sorted(set(given) - set(self.params))
+        if unknown:
+            raise UsageError(
+                f"shape {self.name!r} has no parameter {unknown[0]!r} "
+                f"(parameters: {', '.join(self.params)})"
+            )
+        out = {}
+        for key, spec in self.params.items():
+            value = float(given.get(key, spec.default))
+            if not np.isfinite(value) or not spec.min <= value <= spec.max:
+                raise UsageError(
+                    f"{self.name} {key}={value:g} {spec.unit} is out of range "
+                    f"[{spec.min:g}, {spec.max:g}] {spec.unit}"
+                )
+            out[key] = value
+        check_consistent(self.name, out)
+        return out
+
+    def describe(self) -> dict:
+        """The ``shapes --json`` entry."""
+        return {
+            "name": self.name,
+            "thesis": self.thesis,
+            "doc": self.doc,
+            "params": {
+                k: {"default": p.default, "min": p.min, "max": p.max, "unit": p.unit}
+                for k, p in self.params.items()
+            },
+        }
+
+
+def check_consistent(name: str, p: Mapping[str, float]) -> None:
+    """UsageError where sizes within their ranges still make no such solid."""
+    if name == "torus" and p["major_radius"] <= p["minor_radius"]:
+        raise UsageError("torus major_radius must exceed minor_radius (the hole would close)")
+    if name == "hyperboloid" and p["end_radius"] <= p["waist_radius"]:
+        raise UsageError("hyperboloid end_radius must exceed waist_radius")
+
+
+# --- radius profiles r(x) ------------------------------------------------------------------
+
+
+def _inside(x: np.ndarray, half: float) -> np.ndarray:
+    return np.abs(x) <= half
+
+
+def cylinder_radius(x, radius=0.035, length=0.12):
+    """r(x) of a cylinder: constant."""
+    x = np.asarray(x, float)
+    return np.where(_inside(x, length / 2), radius, 0.0)
+
+
+def cone_radius(x, radius=0.05, length=0.16):
+    """r(x) of a right circular cone, base (radius) at x = -length/2, apex at +length/2."""
+    x = np.asarray(x, float)
+    return np.where(_inside(x, length / 2), radius * (0.5 - x / length), 0.0)
+
+
+def sphere_radius(x, radius=0.045):
+    """r(x) of a sphere."""
+    x = np.asarray(x, float)
+    return np.sqrt(np.clip(radius**2 - x**2, 0.0, None))
+
+
+def torus_radius(x, major_radius=0.048, minor_radius=0.042):
+    """Outer radius r(x) of a torus whose axis is O-O': R + sqrt(a^2 - x^2)."""
+    x = np.asarray(x, float)
+    inside = _inside(x, minor_radius)
+    return np.where(inside, major_radius + np.sqrt(np.clip(minor_radius**2 - x**2, 0, None)), 0)
+
+
+def _hyperboloid_c(waist_radius, end_radius, length):
+    return (length / 2) / np.sqrt((end_radius / waist_radius) ** 2 - 1.0)
+
+
+def hyperboloid_radius(x, waist_radius=0.028, end_radius=0.045, length=0.12):
+    """r(x) of a one-sheet hyperboloid of revolution: a * sqrt(1 + (x / c)^2)."""
+    x = np.asarray(x, float)
+    c = _hyperboloid_c(waist_radius, end_radius, length)
+    return np.where(_inside(x, length / 2), waist_radius * np.sqrt(1 + (x / c) ** 2), 0.0)
+
+
+def ovoid_radius(x, radius=0.04, length=0.13, asymmetry=0.25):
+    """r(x) of an egg: an ellipse of semi-axes (length/2, radius) skewed by (1 + k x / a)."""
+    x = np.asarray(x, float)
+    a = length / 2
+    u = np.clip(x / a, -1.0, 1.0)
+    return np.where(_inside(x, a), radius * np.sqrt(1 - u**2) * (1 + asymmetry * u), 0)
+
+
+def hexagonal_pyramid_radius(x, radius=0.05, length=0.16):
+    """Circumradius of the hexagonal cross-section: linear like the cone's."""
+    return cone_radius(x, radius, length)
+
+
+# --- meshes ---------------------------------------------------------------------------------
+
+_Z_TO_X = np.array([[0.0, 0, 1, 0], [0, 1, 0, 0], [-1, 0, 0, 0], [0, 0, 0, 1]])
+"""+90 deg about y: maps a solid built around z onto O-O' (z -> +x)."""
+
+
+def _trimesh():
+    """trimesh, imported on first mesh: it takes ~1-3 s, and listing shapes or loading the
+    plugin registry (train, evaluate, plugins) needs none."""
+    import trimesh
+
+    return trimesh
+
+
+def _revolve(
+    profile_x: np.ndarray, profile_r: np.ndarray, sections: int = SECTIONS
+) -> trimesh.Trimesh:
+    """Revolve a closed radius profile (from r=0 to r=0) around O-O' (the x axis)."""
+    line = np.column_stack([profile_r, profile_x])
+    mesh = _trimesh().creation.revolve(line, sections=sections)
+    # revolve works around z; rotate +90 deg about y so that z becomes +x.
+    mesh.apply_transform(_Z_TO_X)
+    mesh.fix_normals()
+    return mesh
+
+
+def _profile(radius_fn, half: float, n: int = 64, **params) -> tuple[np.ndarray, np.ndarray]:
+    x = np.linspace(-half, half, n)
+    r = radius_fn(x, **params)
+    r[0] = r[-1] = 0.0  # closes the solid with caps of radius 0 on the axis
+    return x, r
+
+
+def _flat_ends(radius_fn, half: float, n: int = 32, **params) -> tuple[np.ndarray, np.ndarray]:
+    """Profile with flat end caps (cylinder-like ends)."""
+    x = np.linspace(-half, half, n)
+    r = radius_fn(x, **params)
+    return np.concatenate([[-half], x, [half]]), np.concatenate([[0.0], r, [0.0]])
+
+
+def cylinder(
+    radius: float = 0.035, length: float = 0.12, sections: int = SECTIONS
+) -> trimesh.Trimesh:
+    """Cylinder of ``radius`` (m) and ``length`` (m) along O-O'."""
+    x, r = _flat_ends(cylinder_radius, length / 2, 2, radius=radius, length=length)
+    return _revolve(x, r, sections)
+
+
+def cone(radius: float = 0.05, length: float = 0.16, sections: int = SECTIONS) -> trimesh.Trimesh:
+    """Cone of base ``radius`` (m) at -length/2 and apex at +length/2 (m)."""
+    x = np.array([-length / 2, -length / 2, length / 2])
+    r = np.array([0.0, radius, 0.0])
+    return _revolve(x, r, sections)
+
+
+def sphere(radius: float = 0.045, sections: int = SECTIONS) -> trimesh.Trimesh:
+    """Sphere of ``radius`` (m)."""
+    return _revolve(*_profile(sphere_radius, radius, sections // 2 + 1, radius=radius), sections)
+
+
+def torus(
+    major_radius: float = 0.048, minor_radius: float = 0.042, sections: int = SECTIONS
+) -> trimesh.Trimesh:
+    """Torus around O-O': tube of ``minor_radius`` (m) centred ``major_radius`` (m) from it."""
+    mesh = _trimesh().creation.torus(major_radius, minor_radius, sections, 32)
+    mesh.apply_transform(_Z_TO_X)
+    return mesh
+
+
+def hyperboloid(
+    waist_radius: float = 0.028,
+    end_radius: float = 0.045,
+    length: float = 0.12,
+    sections: int = SECTIONS,
+) -> trimesh.Trimesh:
+    """One-sheet hyperboloid of revolution with flat ends, waist at x = 0."""
+    x, r = _flat_ends(
+        hyperboloid_radius, length / 2, 33,
+        waist_radius=waist_radius, end_radius=end_radius, length=length,
+    )  # fmt: skip
+    return _revolve(x, r, sections)
+
+
+def ovoid(
+    radius: float = 0.04, length: float = 0.13, asymmetry: float = 0.25, sections: int = SECTIONS
+) -> trimesh.Trimesh:
+    """Egg: ``length`` (m) along O-O', widest ``radius`` (m), blunt end toward +x."""
+    x, r = _profile(
+        ovoid_radius, length / 2, sections, radius=radius, length=length, asymmetry=asymmetry
+    )
+    return _revolve(x, r, sections)
+
+
+def hexagonal_pyramid(
+    radius: float = 0.05, length: float = 0.16, sections: int = 6
+) -> trimesh.Trimesh:
+    """Hexagonal pyramid: base circumradius ``radius`` (m) at -length/2, apex at +length/2.
+    ``sections`` is accepted for a uniform signature; a hexagon has six."""
+    angles = np.arange(6) * np.pi / 3 + np.pi / 6
+    base = np.column_stack(
+        [np.full(6, -length / 2), radius * np.cos(angles), radius * np.sin(angles)]
+    )
+    apex = np.array([[length / 2, 0.0, 0.0]])
+    return _trimesh().convex.convex_hull(np.vstack([base, apex]))
+
+
+# --- convex pieces for Bullet ---------------------------------------------------------------
+
+
+COLLISION_SECTIONS = 32
+"""Facets around the axis of a convex collision hull: the support-point search Bullet runs per
+contact is linear in vertices, and 32 facets keep the radius within 0.5% (0.2 mm at 45 mm)."""
+
+
+def _single(mesh_fn) -> Callable[..., list[np.ndarray]]:
+    """A convex solid is its own single piece, rebuilt with fewer facets for collision."""
+
+    def pieces(**params) -> list[np.ndarray]:
+        return [np.asarray(mesh_fn(**params, sections=COLLISION_SECTIONS).vertices)]
+
+    return pieces
+
+
+def torus_pieces(major_radius: float = 0.048, minor_radius: float = 0.042) -> list:
+    """The torus as one exact static triangle mesh: the hole stays open and the surface the
+    fingers wrap has no internal faces. Convex sectors around O-O' were tried first: the
+    fingers curl across the sector cuts and the cut faces' normals knocked them about."""
+    return [torus(major_radius, minor_radius, sections=COLLISION_SECTIONS)]
+
+
+def hyperboloid_pieces(
+    waist_radius: float = 0.028, end_radius: float = 0.045, length: float = 0.12
+) -> list:
+    """The hyperboloid as one exact static triangle mesh: the waist stays concave. Convex
+    slabs along O-O' were tried first: a finger capsule straddling a cut felt the cut faces'
+    sideways normals and slid along the waist."""
+    return [hyperboloid(waist_radius, end_radius, length, sections=COLLISION_SECTIONS)]
+
+
+# --- the table ------------------------------------------------------------------------------
+
+BUILTIN_SHAPES: tuple[Shape, ...] = (
+    Shape(
+        "cone",
+        {
+            "radius": Param(0.05, 0.03, 0.07, doc="base radius"),
+            "length": Param(0.16, 0.12, 0.22, doc="base to apex"),
+        },
+        cone_radius, cone, _single(cone),
+        doc="right circular cone, base toward the little finger",
+        extent=lambda length, **_: length / 2,
+    ),
+    Shape(
+        "torus",
+        {
+            "major_radius": Param(0.048, 0.044, 0.07, doc="axis to tube centre"),
+            "minor_radius": Param(0.042, 0.038, 0.055, doc="tube radius"),
+        },
+        torus_radius, torus, torus_pieces,
+        doc="torus around O-O', hole kept open in collision",
+        extent=lambda minor_radius, **_: minor_radius,
+    ),
+    Shape(
+        "sphere",
+        {"radius": Param(0.045, 0.035, 0.07)},
+        sphere_radius, sphere, _single(sphere),
+        doc="sphere",
+        extent=lambda radius, **_: radius,
+    ),
+    Shape(
+        "hyperboloid",
+        {
+            "waist_radius": Param(0.028, 0.02, 0.04, doc="radius at x = 0"),
+            "end_radius": Param(0.045, 0.035, 0.06, doc="radius at the flat ends"),
+            "length": Param(0.12, 0.1, 0.16),
+        },
+        hyperboloid_radius, hyperboloid, hyperboloid_pieces,
+        doc="one-sheet hyperboloid of revolution, waist kept concave in collision",
+        extent=lambda length, **_: length / 2,
+    ),
+    Shape(
+        "cylinder",
+        {
+            "radius": Param(0.035, 0.02, 0.055),
+            "length": Param(0.12, 0.1, 0.18),
+        },
+        cylinder_radius, cylinder, _single(cylinder),
+        doc="cylinder",
+        extent=lambda length, **_: length / 2,
+    ),
+    Shape(
+        "ovoid",
+        {
+            "radius": Param(0.04, 0.03, 0.055, doc="widest radius"),
+            "length": Param(0.13, 0.1, 0.18),
+            "asymmetry": Param(0.25, 0.0, 0.4, unit="1", doc="egg skew k"),
+        },
+        ovoid_radius, ovoid, _single(ovoid),
+        doc="egg (modified shape)", thesis=False,
+        extent=lambda length, **_: length / 2,
+    ),
+    Shape(
+        "hexagonal_pyramid",
+        {
+            "radius": Param(0.05, 0.03, 0.07, doc="base circumradius"),
+            "length": Param(0.16, 0.12, 0.22, doc="base to apex"),
+        },
+        hexagonal_pyramid_radius, hexagonal_pyramid, _single(hexagonal_pyramid),
+        doc="hexagonal pyramid (modified shape)", thesis=False,
+        extent=lambda length, **_: length / 2,
+    ),
+)  # fmt: skip
+
+THESIS_SHAPES: tuple[str, ...] = tuple(s.name for s in BUILTIN_SHAPES if s.thesis)

@@ -1,0 +1,464 @@
+"""Training-free identification by fitting each shape family to the absolute joint angles.
+
+The signature (``perception/signature.py``) normalises each line, which is what makes the
+thesis' DTW matcher size-invariant, and also what makes a sphere look like a torus and a
+cylinder like a hyperboloid: their enhanced lines differ only in scale and in curvature the
+hand barely feels.
+This module keeps the scale. For every shape family it searches the sizes and the object's
+position (offset along O-O' and along the fingers) whose *predicted* final joint angles best
+explain the measured ones, and names the family with the best penalised fit. It also returns
+the fitted sizes, which the DTW matcher cannot.
+
+The forward model (what Algorithm 1's joints end at on a known object) and its calibration
+live in :mod:`~tactile_bullet.perception.shape_model`.
+
+Identification: for each family, a precomputed grid of sizes x offsets (predicted angles cached
+at first use: about a second), then, for the families whose grid score is near the best, a
+batched pattern search around the best grid point and a few damped Gauss-Newton steps. The
+score is the robust (soft-L1) sum of weighted residuals plus a penalty per size parameter; the
+lowest score wins.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+from functools import cache
+
+import numpy as np
+
+from ..errors import UsageError
+from ..objects.shapes import BUILTIN_SHAPES, THESIS_SHAPES, Shape, check_consistent
+from .shape_model import (
+    Calibration,
+    _chain_features,
+    _sections,
+    geometric_features,
+    load_calibration,
+)
+
+OFFSET_X = (-0.02, 0.02)
+"""Range (m) searched for the object's offset along O-O' (twice the thesis preset's)."""
+
+OFFSET_Z = (-0.015, 0.015)
+"""Range (m) searched for the object's offset along the fingers."""
+
+ROTATION = (-math.radians(30.0), math.radians(30.0))
+"""Range (rad) searched for the object's rotation about the palm normal (``Pose.rotation``)."""
+
+FEATURES = ("J3", "J0")
+"""Per finger, what is fitted: the proximal angle and the coupled J0 = J1 + J2 (the split of
+J0 between J1 and J2 follows the tendon rule, not the shape)."""
+
+GRID_STEPS = {1: 22, 2: 10, 3: 6}
+"""Grid values per size parameter, by the family's number of parameters. The counts avoid
+putting grid points on quarters of the ranges (other than the ends), where
+``tools/invariance.py`` places its evaluation sizes: the search starts no closer to the truth
+there than anywhere else."""
+
+OFFSET_STEPS = (8, 6)
+"""Grid values of the offset along O-O' and along the fingers (none at 0 or +-10 mm, the
+evaluation grid's offsets)."""
+
+ROTATION_PRIOR_DEG = 15.0
+"""Spread of the zero-mean Gaussian prior on the rotation, added to the score as
+(rotation / spread)**2 (the data term is a sum of squared sigmas too). Without it a cylinder
+at an outer offset is explained as well by a cone turned 20 deg: turning a cylinder moves each
+finger's section up or down the knuckle's tangent, as a cone's taper does, and eight angles
+cannot always tell the two apart. Most grasps are near square; a turn must earn its cost."""
+
+STARTS = 3
+"""Grid points per family the pattern search starts from, each the best of its grid rotation:
+with the rotation in the grid, the single best point often lies in another valley (a turned,
+larger object further out)."""
+
+ROTATION_STEPS = 5
+"""Grid values of the rotation: -30, -15, 0, 15, 30 deg. Unlike the sizes and offsets, the
+grid keeps 0: most grasps are square, and on a small object one grid step of rotation costs
+more than the search can walk back."""
+
+REFINE_ROUNDS = 3
+"""Moves or halvings of the pattern search's step after the grid."""
+
+REFINE_MARGIN = 25.0
+"""Families whose grid score is more than this above the best grid score keep their grid fit:
+refining them costs time and cannot bring them level."""
+
+_TABLE = {s.name: s for s in BUILTIN_SHAPES}
+# --- fitting ----------------------------------------------------------------------------------
+
+
+def measured_features(angles) -> np.ndarray:
+    """(2, 4) J3 and J0 = J2 + J1 per long finger from final angles (3, 4): rows J3, J2, J1,
+    columns ff, mf, rf, lf (rad), as ``GraspRecord.fci_angles`` gives them."""
+    try:
+        arr = np.asarray(angles, dtype=float)
+    except (TypeError, ValueError):
+        raise UsageError("joint angles must be numbers (3 x 4: J3, J2, J1 x ff..lf)") from None
+    if arr.shape != (3, 4):
+        raise UsageError(
+            f"joint angles must be a 3 x 4 array (rows J3, J2, J1; columns ff, mf, rf, lf), "
+            f"got shape {arr.shape}"
+        )
+    if not np.all(np.isfinite(arr)):
+        raise UsageError("joint angles contain NaN or infinity")
+    return np.stack([arr[0], arr[1] + arr[2]])
+
+
+@dataclass(frozen=True)
+class FamilyFit:
+    """Best fit of one shape family: sizes (m), offset (m: along O-O', along the fingers),
+    ``rotation_deg`` about the palm normal, ``residual`` the RMS angle error (rad) over the
+    eight fitted angles, ``score`` the penalised robust cost the identification compares,
+    ``predicted`` (2, 4) J3, J0."""
+
+    shape: str
+    params: dict[str, float]
+    offset: tuple[float, float]
+    residual: float
+    score: float
+    predicted: np.ndarray
+    rotation_deg: float = 0.0
+
+    def summary(self) -> dict:
+        return {
+            "params": self.params,
+            "offset_m": list(self.offset),
+            "rotation_deg": self.rotation_deg,
+            "residual_rad": self.residual,
+            "score": self.score,
+        }
+
+
+@dataclass(frozen=True)
+class ShapeFit:
+    """Outcome of :func:`fit_shape`: the best family and every family's fit."""
+
+    shape: str
+    fits: dict[str, FamilyFit]
+
+    @property
+    def best(self) -> FamilyFit:
+        return self.fits[self.shape]
+
+    @property
+    def params(self) -> dict[str, float]:
+        """The fitted sizes of the identified shape (m)."""
+        return self.best.params
+
+    @property
+    def residual(self) -> float:
+        return self.best.residual
+
+    def summary(self) -> dict:
+        """The ``shape_fit`` block of ``grasp --json``."""
+        return {
+            "shape": self.shape,
+            "params": self.best.params,
+            "offset_m": list(self.best.offset),
+            "rotation_deg": self.best.rotation_deg,
+            "residual": self.best.residual,
+            "scores": {name: fit.score for name, fit in self.fits.items()},
+        }
+
+
+_POSE_LO = (OFFSET_X[0], OFFSET_Z[0], ROTATION[0])
+_POSE_HI = (OFFSET_X[1], OFFSET_Z[1], ROTATION[1])
+_GRID_CHUNK = 8192
+
+
+class _Family:
+    """One shape family's search space: sizes, offsets and rotation, normalised to [0, 1]."""
+
+    def __init__(self, shape: Shape) -> None:
+        self.shape = shape
+        self.names = tuple(shape.params)
+        self.lo = np.array([shape.params[k].min for k in self.names] + list(_POSE_LO))
+        self.hi = np.array([shape.params[k].max for k in self.names] + list(_POSE_HI))
+        steps = GRID_STEPS.get(len(self.names), 6)
+        axes = [np.linspace(0.0, 1.0, steps)] * len(self.names)
+        axes += [np.linspace(0.0, 1.0, n) for n in (*OFFSET_STEPS, ROTATION_STEPS)]
+        self.spacing = np.array([1.0 / (len(a) - 1) for a in axes])
+        grid = np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1).reshape(-1, len(axes))
+        self.grid = grid[self.valid(grid)]
+        self.rotation_groups = [
+            np.flatnonzero(self.grid[:, -1] == v) for v in np.unique(self.grid[:, -1])
+        ]
+        self.grid_geometry = np.concatenate(
+            [self.geometry(self.grid[i : i + _GRID_CHUNK])
+             for i in range(0, len(self.grid), _GRID_CHUNK)]
+        )  # fmt: skip
+        self._cal: Calibration | None = None
+        self._pred = self.grid_geometry[..., :2, :]
+
+    def starts(self, cost: np.ndarray) -> np.ndarray:
+        """Grid indices the search starts from: the best point of each grid rotation, the
+        ``STARTS`` best of those (the best points overall tend to share one valley)."""
+        best = [group[np.argmin(cost[group])] for group in self.rotation_groups]
+        return np.array(sorted(best, key=lambda i: cost[i])[:STARTS])
+
+    def grid_prediction(self, cal: Calibration) -> np.ndarray:
+        """The grid's predicted angles under ``cal`` (kept for the last calibration used)."""
+        if self._cal is not cal:
+            self._cal, self._pred = cal, cal.apply(self.grid_geometry)
+        return self._pred
+
+    def values(self, z: np.ndarray) -> np.ndarray:
+        return self.lo + np.clip(z, 0.0, 1.0) * (self.hi - self.lo)
+
+    def valid(self, z: np.ndarray) -> np.ndarray:
+        v = self.values(z)
+        p = {k: v[:, i] for i, k in enumerate(self.names)}
+        ok = np.ones(len(z), dtype=bool)
+        if self.shape.name == "torus":
+            ok &= p["major_radius"] > p["minor_radius"]
+        if self.shape.name == "hyperboloid":
+            ok &= p["end_radius"] > p["waist_radius"] * 1.001
+        return ok
+
+    def sections(self, z: np.ndarray) -> tuple[np.ndarray, ...]:
+        v = self.values(z)
+        params = {k: v[:, i] for i, k in enumerate(self.names)}
+        return _sections(self.shape, params, v[:, -3:])
+
+    def geometry(self, z: np.ndarray) -> np.ndarray:
+        return _chain_features(*self.sections(z))
+
+
+@cache
+def _family(name: str) -> _Family:
+    return _Family(_TABLE[name])
+
+
+def fitted_shapes() -> tuple[str, ...]:
+    """Shapes the forward model covers (every built-in shape: each has a radius profile)."""
+    return tuple(_TABLE)
+
+
+def _resolve_family(shape: str | Shape) -> _Family:
+    name = shape.name if isinstance(shape, Shape) else shape
+    if name not in _TABLE:
+        raise UsageError(f"shape-fit has no model of shape {name!r} (shapes: {', '.join(_TABLE)})")
+    return _family(name)
+
+
+def _costs(measured: np.ndarray, predicted: np.ndarray, cal: Calibration) -> np.ndarray:
+    """Robust (soft-L1) cost of each predicted (.., 2, 4) against the measured (2, 4)."""
+    e = (measured - predicted) / cal.sigma
+    c = cal.loss_scale
+    return (2.0 * c * c * (np.sqrt(1.0 + (e / c) ** 2) - 1.0)).sum(axis=(-2, -1))
+
+
+def fit_family(angles, shape: str | Shape, calibration: Calibration | None = None) -> FamilyFit:
+    """Sizes and offset of ``shape`` that best explain final angles (3, 4): grid, then a
+    batched pattern search (every neighbour at +-step in the normalised coordinates, the step
+    halved when no move helps)."""
+    measured = measured_features(angles)
+    cal = load_calibration() if calibration is None else calibration
+    fam = _resolve_family(shape)
+    return _fit(measured, [fam], cal)[fam.shape.name]
+
+
+@cache
+def _moves(dims: int) -> np.ndarray:
+    """Every neighbour at -1, 0, +1 step per coordinate (3**dims - 1 of them): size and
+    position trade off along diagonals (a larger object further out), which moves along one
+    axis at a time cannot follow."""
+    grid = np.stack(np.meshgrid(*[(-1.0, 0.0, 1.0)] * dims, indexing="ij"), -1)
+    moves = grid.reshape(-1, dims)
+    return moves[np.any(moves != 0, axis=1)]
+
+
+_ROTATION_SPAN = ROTATION[1] - ROTATION[0]
+
+
+def _prior_residual(z: np.ndarray) -> np.ndarray:
+    """rotation / prior spread of normalised points (..., dims), rotation last: the prior's
+    score is its square."""
+    beta = ROTATION[0] + np.clip(z[..., -1], 0.0, 1.0) * _ROTATION_SPAN
+    return beta / math.radians(ROTATION_PRIOR_DEG)
+
+
+def _objective(measured: np.ndarray, predicted: np.ndarray, z: np.ndarray, cal) -> np.ndarray:
+    """What the search minimises: the robust angle cost plus the rotation prior."""
+    return _costs(measured, predicted, cal) + _prior_residual(z) ** 2
+
+
+def _accept(measured: np.ndarray, state: list, trials: list, cal: Calibration) -> set[int]:
+    """Score each (start index, candidates) of ``trials`` in one pass of the finger chain and
+    move each start to its best candidate where that improves on it; returns the starts that
+    moved."""
+    moved = set()
+    for (k, cand), pred in zip(trials, _predict(state, trials, cal), strict=True):
+        c = _objective(measured, pred, cand, cal)
+        j = int(np.argmin(c))
+        if c[j] < state[k][2]:
+            state[k][1], state[k][2] = cand[j], float(c[j])
+            moved.add(k)
+    return moved
+
+
+def _fit(measured: np.ndarray, fams: Sequence[_Family], cal: Calibration) -> dict[str, FamilyFit]:
+    """Every family's fit at once: the pattern search runs the families (each from its
+    ``STARTS`` best grid points) in lockstep so that each round is one pass of the finger chain
+    over all their candidates."""
+    state = []
+    for fam in fams:
+        cost = _objective(measured, fam.grid_prediction(cal), fam.grid, cal)
+        starts = fam.starts(cost)
+        dims = fam.grid.shape[1]
+        for best in starts:
+            state.append([fam, fam.grid[best], float(cost[best]), fam.spacing / 2.0, _moves(dims)])
+    # only starts whose grid score is near the best one's are worth refining
+    scores = [c + cal.penalty * len(f.names) for f, _, c, _, _ in state]
+    near = [k for k, sc in enumerate(scores) if sc <= min(scores) + REFINE_MARGIN]
+    for _ in range(REFINE_ROUNDS):
+        parts = []
+        for k in near:
+            fam, z, _, step, moves = state[k]
+            cand = np.clip(z + moves * step, 0.0, 1.0)
+            cand = cand[fam.valid(cand)]
+            if cand.size:
+                parts.append((k, cand))
+        if not parts:
+            break
+        moved = _accept(measured, state, parts, cal)
+        for k, _ in parts:
+            if k not in moved:
+                state[k][3] = state[k][3] / 2.0
+    _polish(measured, state, near, cal)
+    best_of: dict[str, list] = {}
+    for entry in state:
+        name = entry[0].shape.name
+        if name not in best_of or entry[2] < best_of[name][2]:
+            best_of[name] = entry
+    kept = list(best_of.values())
+    out = {}
+    finals = _predict(kept, [(k, s[1][None]) for k, s in enumerate(kept)], cal)
+    for (fam, z, cost, _, _), final in zip(kept, finals, strict=True):
+        values = fam.values(z[None])[0]
+        predicted = final[0]
+        out[fam.shape.name] = FamilyFit(
+            shape=fam.shape.name,
+            params={k: float(values[i]) for i, k in enumerate(fam.names)},
+            offset=(float(values[-3]), float(values[-2])),
+            rotation_deg=float(np.degrees(values[-1])),
+            residual=float(np.sqrt(np.mean((measured - predicted) ** 2))),
+            score=cost + cal.penalty * len(fam.names),
+            predicted=predicted,
+        )
+    return out
+
+
+def _predict(state, parts, cal: Calibration) -> list[np.ndarray]:
+    """Predicted (n, 2, 4) angles of each (family index, candidates) in ``parts``, through one
+    pass of the finger chain over all of them."""
+    sections = [state[k][0].sections(cand) for k, cand in parts]
+    joined = [np.concatenate([sec[i] for sec in sections]) for i in range(4)]
+    pred = cal.apply(_chain_features(*joined))
+    sizes = np.cumsum([len(cand) for _, cand in parts])[:-1]
+    return np.split(pred, sizes)
+
+
+POLISH_STEPS = 4
+"""Levenberg-Marquardt steps after the pattern search: size and position trade off along
+curved valleys (a larger object further out) that fixed-ratio steps crawl along."""
+
+_DAMPING = (1e-3, 1e-1, 1e1)
+
+
+def _polish(measured: np.ndarray, state: list, near: list[int], cal: Calibration) -> None:
+    """Damped Gauss-Newton on the soft-L1 cost (reweighted least squares), the near families
+    in lockstep: per step one batch of finite-difference points, one of trial steps."""
+    h = 1e-3
+    for _ in range(POLISH_STEPS):
+        parts = []
+        for k in near:
+            z, dims = state[k][1], state[k][1].size
+            parts.append((k, np.clip(np.vstack([z, z + h * np.eye(dims)]), 0.0, 1.0)))
+        trials = []
+        for (k, pts), pred in zip(parts, _predict(state, parts, cal), strict=True):
+            e = ((measured - pred[0]) / cal.sigma).ravel()
+            jac = (-(pred[1:] - pred[0]) / cal.sigma).reshape(len(pts) - 1, -1).T
+            jac /= np.maximum(pts[1:] - pts[0], 1e-12).sum(axis=1)  # per unit of z
+            w = 1.0 / np.sqrt(1.0 + (e / cal.loss_scale) ** 2)
+            # the rotation prior as one more (unweighted) residual, linear in z
+            prior_row = np.zeros(jac.shape[1])
+            prior_row[-1] = _ROTATION_SPAN / math.radians(ROTATION_PRIOR_DEG)
+            e = np.append(e, _prior_residual(pts[0]))
+            jac = np.vstack([jac, prior_row])
+            w = np.append(w, 1.0)
+            a = jac.T @ (w[:, None] * jac)
+            g = jac.T @ (w * e)
+            steps = []
+            for lam in _DAMPING:
+                m = a + lam * (np.diag(np.diag(a)) + 1e-9 * np.eye(len(g)))
+                try:
+                    steps.append(-np.linalg.solve(m, g))
+                except np.linalg.LinAlgError:
+                    continue
+            if steps:
+                cand = np.clip(pts[0] + np.array(steps), 0.0, 1.0)
+                cand = cand[state[k][0].valid(cand)]
+                if cand.size:
+                    trials.append((k, cand))
+        if not trials:
+            return
+        _accept(measured, state, trials, cal)
+
+
+def fit_shape(
+    angles,
+    families: Sequence[str] = THESIS_SHAPES,
+    calibration: Calibration | None = None,
+) -> ShapeFit:
+    """Fit every family in ``families`` to final angles (3, 4) and name the best-scoring one.
+
+    The second training-free identifier next to ``patterns.identify`` (DTW on the normalised
+    signature): it reads absolute angles, so scale separates sphere from torus and cylinder
+    from hyperboloid, and a finger that closed to its limits is explained by the model.
+    """
+    measured = measured_features(angles)
+    names = list(dict.fromkeys(families))
+    if not names:
+        raise UsageError("shape-fit needs at least one shape family")
+    cal = load_calibration() if calibration is None else calibration
+    fits = _fit(measured, [_resolve_family(n) for n in names], cal)
+    return ShapeFit(min(fits, key=lambda n: fits[n].score), fits)
+
+
+def predicted_angles(
+    shape: str | Shape,
+    params: Mapping[str, float] | None = None,
+    offset: tuple[float, float] = (0.0, 0.0),
+    calibration: Calibration | None = None,
+    rotation_deg: float = 0.0,
+) -> np.ndarray:
+    """(2, 4) J3 and J0 per long finger the model predicts for ``shape`` at sizes ``params``
+    (defaults filled in, range-checked), ``offset`` (m, along O-O' and along the fingers) and
+    ``rotation_deg`` about the palm normal (within the searched +-30 deg)."""
+    fam = _resolve_family(shape)
+    values = fam.shape.resolve(params)
+    check_consistent(fam.shape.name, values)
+    off = np.asarray(offset, dtype=float)
+    if off.shape != (2,) or not np.all(np.isfinite(off)):
+        raise UsageError("offset must be two finite numbers (m): along O-O', along the fingers")
+    beta = math.radians(float(rotation_deg))
+    if not (ROTATION[0] - 1e-9 <= beta <= ROTATION[1] + 1e-9):
+        raise UsageError(
+            f"rotation must be within +-{math.degrees(ROTATION[1]):g} deg, got {rotation_deg}"
+        )
+    cal = load_calibration() if calibration is None else calibration
+    pose = np.array([[off[0], off[1], beta]])
+    geo = geometric_features(fam.shape, {k: np.array([v]) for k, v in values.items()}, pose)
+    return cal.apply(geo)[0]
+
+
+def shape_fit_summary(record) -> dict | None:
+    """The ``shape_fit`` block of ``grasp --json`` for one record ({"shape", "params",
+    "offset_m", "residual", "scores"}), or None where its angles cannot be fitted."""
+    try:
+        return fit_shape(record.fci_angles()).summary()
+    except UsageError:
+        return None

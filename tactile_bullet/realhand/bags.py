@@ -1,0 +1,193 @@
+"""ROS 1 ``.bag`` files and ROS 2 bag folders (``.db3``, ``.mcap``) -> joint samples.
+
+Read with the pure-Python ``rosbags`` library (the ``ros`` extra; no ROS install):
+``sensor_msgs/JointState`` on one topic, and optional grasp markers on another.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import UsageError
+from ..hand import JOINT_NAMES
+from .calibration import Calibration
+from .joints import JointMap, JointSamples, _check_finite, _check_time
+from .names import DEFAULT_TOPIC, JOINT_STATE, MARKER_TOPIC, NO_MARKER, is_hand_message
+
+# --- bags ---------------------------------------------------------------------------------------
+
+
+def _rosbags():
+    try:
+        import rosbags.highlevel  # noqa: F401
+        import rosbags.typesys  # noqa: F401
+    except ImportError:
+        raise UsageError(
+            "reading ROS bags needs the rosbags library: pip install 'tactile-bullet[ros]'"
+        ) from None
+    return rosbags
+
+
+def _bag_root(path: Path) -> Path:
+    """A ROS 2 bag is its folder: a .db3/.mcap file inside one is read through the folder."""
+    if path.is_dir():
+        return path
+    if path.suffix in (".db3", ".mcap") and (path.parent / "metadata.yaml").is_file():
+        return path.parent
+    if path.suffix in (".db3", ".mcap"):
+        raise UsageError(f"{path}: a ROS 2 bag file needs its folder's metadata.yaml beside it")
+    return path
+
+
+def read_bag(
+    path: str | Path,
+    topic: str = DEFAULT_TOPIC,
+    marker: str | None = None,
+    calibration: Calibration | None = None,
+) -> JointSamples:
+    """Joint states on ``topic`` (and grasp markers on ``marker``) of a ROS 1 or ROS 2 bag."""
+    _rosbags()
+    from rosbags.highlevel import AnyReader
+    from rosbags.typesys import Stores, get_typestore
+
+    path = Path(path)
+    if not path.exists():
+        raise UsageError(f"recording {path} does not exist")
+    root = _bag_root(path)
+    where = str(path)
+    try:
+        with AnyReader([root], default_typestore=get_typestore(Stores.ROS2_HUMBLE)) as reader:
+            topics = {c.topic: c.msgtype for c in reader.connections}
+            if topic not in topics:
+                states = sorted(t for t, m in topics.items() if m == JOINT_STATE)
+                hint = (
+                    f"JointState topics: {', '.join(states)}" if states else "no JointState topic"
+                )
+                raise UsageError(f"{where} has no topic {topic} ({hint}); choose one with --topic")
+            if topics[topic] != JOINT_STATE:
+                raise UsageError(
+                    f"{where}: topic {topic} carries {topics[topic]}, not {JOINT_STATE}"
+                )
+            marker_topic = None if marker == NO_MARKER else marker
+            if marker is None and MARKER_TOPIC in topics:
+                marker_topic = MARKER_TOPIC
+            if marker_topic is not None and marker_topic not in topics:
+                raise UsageError(f"{where} has no marker topic {marker_topic}")
+            wanted = [c for c in reader.connections if c.topic in (topic, marker_topic)]
+            maps: dict[tuple[str, ...], JointMap] = {}
+            stamps, receive, pos_rows, eff_rows, events, keys = [], [], [], [], [], []
+            others: set[tuple[str, ...]] = set()
+            has_eff = True
+            current = None
+            for conn, t_recv, raw in reader.messages(connections=wanted):
+                msg = reader.deserialize(raw, conn.msgtype)
+                if conn.topic != topic:
+                    events.append((t_recv, _marker_event(msg, conn.msgtype, where)))
+                    continue
+                names = tuple(msg.name)
+                if current is None or names != current.names:
+                    if names in others or not is_hand_message(names):
+                        others.add(names)  # another robot on the same topic (an arm)
+                        continue
+                    current = maps.get(names)
+                    if current is None:
+                        current = maps[names] = JointMap(names, calibration, where)
+                position, effort = msg.position, msg.effort
+                if len(position) != len(names):
+                    raise UsageError(
+                        f"{where}: a message has {len(names)} names but {len(position)} positions"
+                    )
+                if len(effort) != len(names):
+                    has_eff = False
+                pos_rows.append(position)
+                eff_rows.append(effort)
+                keys.append(current)
+                stamp = msg.header.stamp
+                stamps.append(int(stamp.sec) * 1_000_000_000 + int(stamp.nanosec))
+                receive.append(int(t_recv))
+    except UsageError:
+        raise
+    except Exception as exc:  # noqa: BLE001 - a damaged bag is the user's input
+        text = str(exc).strip().splitlines()
+        raise UsageError(
+            f"{where} is not a readable bag ({text[0] if text else type(exc).__name__})"
+        ) from None
+    if not pos_rows:
+        what = "no Shadow hand joints" if others else "no messages"
+        raise UsageError(f"{where}: topic {topic} holds {what}")
+    stamp_ns = np.array(stamps, np.int64)
+    recv_ns = np.array(receive, np.int64)
+    if np.all(stamp_ns == 0):
+        stamp_ns = recv_ns
+    time = (stamp_ns - stamp_ns[0]) / 1e9
+    _check_time(time, where)
+    angles = np.zeros((len(pos_rows), len(JOINT_NAMES)))
+    efforts = np.zeros_like(angles)
+    for jmap in maps.values():  # one batch per distinct name list (usually one)
+        rows = [k for k, m in enumerate(keys) if m is jmap] if len(maps) > 1 else slice(None)
+        chosen = pos_rows if len(maps) == 1 else [pos_rows[k] for k in rows]
+        angles[rows] = jmap.positions(np.array(chosen, float))
+        if has_eff:
+            chosen = eff_rows if len(maps) == 1 else [eff_rows[k] for k in rows]
+            efforts[rows] = jmap.efforts(np.array(chosen, float))
+    _check_finite(angles, where, "joint positions")
+    origin = int(recv_ns[0])
+    windows = None
+    if marker_topic is not None:
+        windows = _windows(events, origin, where)
+    any_map = next(iter(maps.values()))
+    return JointSamples(
+        source=where,
+        time=time,
+        receive=(recv_ns - origin) / 1e9,
+        angles=angles,
+        efforts=efforts,
+        has_efforts=has_eff,
+        windows=windows,
+        coupled=any(m.coupled for m in maps.values()),
+        prefix=any_map.prefix,
+    )
+
+
+def _marker_event(msg, msgtype: str, where: str) -> tuple[str, str | None]:
+    """('start'|'end', label) from one marker message."""
+    if msgtype == "std_msgs/msg/Bool":
+        return ("start" if msg.data else "end", None)
+    if msgtype != "std_msgs/msg/String":
+        raise UsageError(f"{where}: marker topic carries {msgtype}; use std_msgs String or Bool")
+    text = str(msg.data).strip()
+    label = None
+    if text.startswith("{"):
+        try:
+            doc = json.loads(text)
+            text, label = str(doc["event"]), doc.get("shape")
+        except (ValueError, KeyError, TypeError):
+            raise UsageError(f"{where}: unreadable marker message {text[:40]!r}") from None
+    event = text.lower()
+    if event not in ("start", "end"):
+        raise UsageError(f"{where}: marker message {text[:40]!r} is neither 'start' nor 'end'")
+    return event, (str(label) if label is not None else None)
+
+
+def _windows(events, origin_ns: int, where: str) -> list[tuple[float, float, str | None]]:
+    """Pair start/end marker events into (start, end, label) windows (s from ``origin_ns``)."""
+    windows = []
+    open_at, label = None, None
+    for t_ns, (event, lab) in sorted(events, key=lambda e: e[0]):
+        t = (int(t_ns) - origin_ns) / 1e9
+        if event == "start":
+            if open_at is not None:
+                windows.append((open_at, t, label))
+            open_at, label = t, lab
+        elif open_at is None:
+            raise UsageError(f"{where}: grasp marker 'end' at {t:.3f} s without a 'start'")
+        else:
+            windows.append((open_at, t, label or lab))
+            open_at = None
+    if open_at is not None:
+        windows.append((open_at, math.inf, label))
+    return windows

@@ -1,0 +1,112 @@
+"""Cutting a stream of joint samples into grasps where no marker says where they are.
+
+A gap without messages ends a grasp; a grasp starts where the hand's closure (the mean of
+J3 + J2 + J1 over the long fingers) rises above its lowest value and ends where the hand opens
+(see :class:`GraspSegmenter`).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from ..errors import UsageError
+from .joints import closure
+
+GAP_S = 0.5
+"""Silence (s) without messages that ends a grasp."""
+START_RISE = 0.1
+"""Closure rise (rad, mean J3 + J2 + J1 over the long fingers) that starts a grasp."""
+RELEASE_DROP = 0.3
+"""Closure fall (rad) below the peak that means the hand opened: the grasp is over."""
+HOLD_TOL = 0.05
+"""Samples within this closure (rad) of the peak still belong to the held grasp."""
+SETTLE_S = 0.15
+"""Time (s) the closure must stay within ``STILL_TOL`` for a grasp to count as settled
+(streaming: ``grasp_over``)."""
+STILL_TOL = 0.01
+
+# --- segmentation -----------------------------------------------------------------------------
+
+
+class GraspSegmenter:
+    """Cuts a stream of (time, closure) samples into grasps by silence between closures.
+
+    Fed one sample at a time (the streaming identifier) or a whole recording
+    (:func:`segment_by_silence`); ``push`` returns the (start, end) sample indices of a grasp
+    the new sample has ended (a gap, or the hand opening), ``finish`` the one still running.
+    """
+
+    def __init__(self, gap_s: float = GAP_S) -> None:
+        if not (math.isfinite(gap_s) and gap_s > 0):
+            raise UsageError(f"gap must be a positive number of seconds, got {gap_s!r}")
+        self.gap_s = float(gap_s)
+        self.reset()
+
+    def reset(self) -> None:
+        self.last_t: float | None = None
+        self.last_i = -1
+        self.closing = False
+        self.start = 0
+        self.c_min = math.inf
+        self.i_min = 0
+        self.c_max = -math.inf
+        self.i_high = 0
+        self.c_ref = 0.0
+        self.still_since = 0.0
+        self.settled = False
+
+    def _open_at(self, i: int, c: float) -> None:
+        self.closing = False
+        self.settled = False
+        self.c_min, self.i_min = c, i
+
+    def push(self, i: int, t: float, c: float) -> tuple[int, int] | None:
+        done = None
+        if self.last_t is not None and t - self.last_t > self.gap_s:
+            done = self.finish()
+            self._open_at(i, c)
+        self.last_t, self.last_i = t, i
+        if not self.closing:
+            if c < self.c_min:
+                self.c_min, self.i_min = c, i
+            elif c > self.c_min + START_RISE:
+                self.closing, self.start = True, self.i_min
+                self.c_max, self.i_high = c, i
+                self.c_ref, self.still_since = c, t
+            return done
+        if c >= self.c_max:
+            self.c_max = c
+        if c >= self.c_max - HOLD_TOL:
+            self.i_high = i
+        if c < self.c_max - RELEASE_DROP:
+            done = (self.start, self.i_high)
+            self._open_at(i, c)
+            return done
+        if abs(c - self.c_ref) > STILL_TOL:
+            self.c_ref, self.still_since = c, t
+        self.settled = t - self.still_since >= SETTLE_S
+        return done
+
+    def finish(self) -> tuple[int, int] | None:
+        """The grasp running at the end of the data (or before a gap), if any."""
+        if not self.closing:
+            return None
+        self.closing = False
+        return (self.start, self.last_i)
+
+
+def segment_by_silence(time: np.ndarray, angles: np.ndarray, gap_s: float = GAP_S):
+    """(start, end) inclusive sample ranges of the grasps in a recording (see module doc)."""
+    seg = GraspSegmenter(gap_s)
+    out = []
+    levels = closure(angles).tolist()
+    for i, (t, c) in enumerate(zip(time.tolist(), levels, strict=True)):
+        done = seg.push(i, t, c)
+        if done is not None:
+            out.append(done)
+    done = seg.finish()
+    if done is not None:
+        out.append(done)
+    return out

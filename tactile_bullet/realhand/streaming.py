@@ -1,0 +1,256 @@
+"""Live identification: feed joint-state messages as they arrive, ask for the shape any time.
+
+::
+
+    from tactile_bullet import Identifier
+
+    ident = Identifier.load("model.npz")
+    ident.update(t, msg.name, msg.position, msg.effort)   # per JointState message
+    ident.result()  # {"shape", "probabilities", "rotation_deg", "grasp_over", ...}
+
+Names are taken as the hand publishes them (``rh_FFJ3``, coupled ``FFJ0``: see
+``realhand/recordings.py``); an optional joint calibration corrects the sensors. Grasps are
+cut the way ``segment.segment_by_silence`` cuts a file (one :class:`segment.GraspSegmenter`
+fed sample by sample): a grasp starts when the hand's closure rises, and is over once the hand
+has held still for ``segment.SETTLE_S``, has opened, or has fallen silent for over
+``gap_s`` (seen at the next message), or when the caller says so with :meth:`finish`.
+
+``update`` only maps names, stores the sample and steps the segmenter (tens of
+microseconds); ``result`` builds the grasp's record and runs the model (about a millisecond
+for signature + svm), and is cached until the next ``update``. ``tools/bench_streaming.py``
+measures both.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+from collections.abc import Sequence
+from typing import Any
+
+import numpy as np
+
+from ..errors import UsageError
+from ..hand import JOINT_NAMES
+from .calibration import Calibration
+from .joints import JointMap, closure
+from .names import is_hand_message
+from .recordings import record_from_samples
+from .segment import GAP_S, STILL_TOL, GraspSegmenter
+
+TRIM_AT = 4096
+"""Samples kept before a grasp starts are trimmed once the buffer holds this many."""
+
+
+class Identifier:
+    """Streaming shape identification with a trained model (see the module docstring)."""
+
+    def __init__(self, model, calibration: Calibration | None = None, gap_s: float = GAP_S) -> None:
+        self.model = model
+        self.calibration = calibration
+        self._segmenter = GraspSegmenter(gap_s)
+        self._maps: dict[tuple[str, ...], JointMap | None] = {}
+        self._map: JointMap | None = None
+        self._names: tuple[str, ...] | None = None
+        self._classes = [str(c) for c in model.classes]
+        self.reset()
+
+    @classmethod
+    def load(
+        cls,
+        model: str | os.PathLike | Any,
+        calibration: str | os.PathLike | Calibration | None = None,
+        gap_s: float = GAP_S,
+    ) -> Identifier:
+        """An identifier for a saved model file (or a loaded Model); ``calibration`` a TOML
+        path or a :class:`Calibration`."""
+        from ..learn.models import load_model
+        from .calibration import load_calibration
+
+        if isinstance(model, str | os.PathLike):
+            model = load_model(model)
+        if isinstance(calibration, str | os.PathLike):
+            calibration = load_calibration(calibration)
+        return cls(model, calibration, gap_s)
+
+    def reset(self) -> None:
+        """Forget every sample and grasp (a new session)."""
+        self._segmenter.reset()
+        self._t: list[float] = []
+        self._q: list[np.ndarray] = []
+        self._e: list[np.ndarray] = []
+        self._offset = 0  # global index of the buffer's first sample
+        self._count = 0
+        self._no_efforts = False
+        self._done: tuple[np.ndarray, np.ndarray, np.ndarray, bool] | None = None
+        self._cache: dict[str, Any] | None = None
+
+    # --- input ------------------------------------------------------------------------------
+
+    def _joint_map(self, names: Sequence[str]) -> JointMap | None:
+        """The map of a name list (cached); None for another robot's message."""
+        key = names if isinstance(names, tuple) else tuple(names)
+        if key != self._names:
+            if key in self._maps:
+                jmap = self._maps[key]
+            elif is_hand_message(key):
+                jmap = self._maps[key] = JointMap(key, self.calibration, "joint state")
+            else:
+                jmap = self._maps[key] = None
+            if jmap is None:
+                return None
+            self._map, self._names = jmap, key
+        return self._map
+
+    def update(
+        self,
+        t: float,
+        names: Sequence[str],
+        positions: Sequence[float],
+        efforts: Sequence[float] | None = None,
+    ) -> None:
+        """One joint-state message: time ``t`` (s, any origin), published ``names``,
+        ``positions`` (rad) and optionally ``efforts`` (N m, same order; empty or None when
+        the hand publishes none). A message naming no Shadow joint (an arm sharing the
+        topic) is ignored."""
+        jmap = self._joint_map(names)
+        if jmap is None:
+            return
+        t = float(t)
+        raw = np.asarray(positions, dtype=float)
+        if raw.shape != (len(jmap.names),):
+            raise UsageError(f"{len(jmap.names)} joint names but {raw.size} positions")
+        if not (math.isfinite(t) and np.isfinite(raw).all()):
+            raise UsageError("joint state holds NaN or infinity")
+        if self._t and t <= self._t[-1]:
+            raise UsageError(f"joint-state time went backwards ({self._t[-1]} s then {t} s)")
+        q = jmap.positions(raw)
+        if efforts is None or len(efforts) == 0:
+            e = np.zeros(len(JOINT_NAMES))
+            self._no_efforts = True
+        elif len(efforts) != len(jmap.names):
+            raise UsageError(f"{len(jmap.names)} joint names but {len(efforts)} efforts")
+        else:
+            e = jmap.efforts(np.asarray(efforts, dtype=float))
+        seg = self._segmenter
+        c = float(closure(q))
+        if seg.closing and seg.settled and abs(c - seg.c_ref) <= STILL_TOL:
+            # held: the last sample follows the hand instead of the buffer growing for as
+            # long as the object is held (result() stays as fast as at the grasp's end)
+            index = self._offset + len(self._t) - 1
+            self._t[-1], self._q[-1], self._e[-1] = t, q, e
+        else:
+            index = self._offset + len(self._t)
+            self._t.append(t)
+            self._q.append(q)
+            self._e.append(e)
+        self._count += 1
+        self._cache = None
+        done = seg.push(index, t, c)
+        if done is not None:
+            self._keep(done)
+        if not seg.closing and len(self._t) > TRIM_AT:
+            self._trim(seg.i_min)
+
+    def finish(self) -> None:
+        """The caller knows the grasp is over (end of a replay, a marker): close it now."""
+        done = self._segmenter.finish()
+        if done is not None:
+            self._keep(done)
+            self._cache = None
+
+    def _keep(self, span: tuple[int, int]) -> None:
+        lo, hi = span[0] - self._offset, span[1] - self._offset + 1
+        self._done = (
+            np.array(self._t[lo:hi]),
+            np.array(self._q[lo:hi]),
+            np.array(self._e[lo:hi]),
+            self._no_efforts,
+        )
+
+    def _trim(self, keep_from: int) -> None:
+        cut = max(0, keep_from - self._offset)
+        del self._t[:cut], self._q[:cut], self._e[:cut]
+        self._offset += cut
+
+    # --- output -----------------------------------------------------------------------------
+
+    @property
+    def samples(self) -> int:
+        """Messages received since the last reset."""
+        return self._count
+
+    def current_record(self):
+        """The grasp the answer is about, as a recorded GraspRecord (None before any)."""
+        seg = self._segmenter
+        if seg.closing:
+            lo = seg.start - self._offset
+            return record_from_samples(
+                np.array(self._t[lo:]),
+                np.array(self._q[lo:]),
+                np.array(self._e[lo:]),
+                has_efforts=not self._no_efforts,
+            )
+        if self._done is not None:
+            t, q, e, no_eff = self._done
+            return record_from_samples(t, q, e, has_efforts=not no_eff)
+        return None
+
+    def result(self) -> dict[str, Any]:
+        """``shape`` (None until the grasp is over), ``probabilities`` (of the grasp so far),
+        ``rotation_deg`` (calibrated object rotation, None where unknown), ``grasp_over``,
+        and ``samples`` (messages in the grasp)."""
+        if self._cache is not None:
+            return self._cache
+        seg = self._segmenter
+        record = self.current_record()
+        if record is None:
+            doc = {"shape": None, "probabilities": {}, "rotation_deg": None,
+                   "grasp_over": False, "samples": 0}  # fmt: skip
+        else:
+            over = not seg.closing or seg.settled
+            answer, probabilities = self._predict(record, decide=over)
+            doc = {
+                "shape": answer if over else None,
+                "probabilities": probabilities,
+                "rotation_deg": _rotation(record, answer) if over else None,
+                "grasp_over": over,
+                "samples": int(record.time.size),
+            }
+        self._cache = doc
+        return doc
+
+    def _predict(self, record, decide: bool) -> tuple[str | None, dict[str, float]]:
+        """(the estimator's own decision when ``decide``, else None; probabilities). The
+        decision is asked for separately because it can differ from the probabilities'
+        argmax (an SVM with Platt scaling); a grasp still closing skips it."""
+        features = self.model.features([record])
+        estimator = self.model.estimator
+        shape = str(np.asarray(estimator.predict(features))[0]) if decide else None
+        try:
+            proba = np.asarray(estimator.predict_proba(features), dtype=float)[0]
+        except (AttributeError, NotImplementedError):
+            shape = shape or str(np.asarray(estimator.predict(features))[0])
+            return shape, {c: float(c == shape) for c in self._classes}
+        return shape, {c: float(p) for c, p in zip(self._classes, proba, strict=True)}
+
+
+def _rotation(record, shape: str) -> float | None:
+    """Calibrated object rotation (deg) from the signature's slope, with ``shape``'s own
+    line; None where the packaged calibration has none. Only the raw lines' end points are
+    needed, so the enhancement is skipped."""
+    from types import SimpleNamespace
+
+    from ..perception.rotation import alpha_of, estimate_rotation_deg, load_calibration
+    from ..perception.signature import end_point_angle, fci, raw_signature
+
+    cal = load_calibration()
+    if cal is None:
+        return None
+    try:
+        lower, upper = raw_signature(fci(record.fci_angles()))
+    except UsageError:
+        return None
+    a_lo, a_up = end_point_angle(lower), end_point_angle(upper)
+    alphas = SimpleNamespace(alpha_lower=a_lo, alpha_upper=a_up, alpha_deg=0.5 * (a_lo + a_up))
+    return estimate_rotation_deg(alpha_of(alphas, cal.line), cal, shape)

@@ -1,0 +1,152 @@
+"""CSV and Parquet tables -> joint samples.
+
+A ``time`` column in seconds, one column per joint (radians), optional ``<joint>_effort``
+columns (N m), an optional ``shape`` label column and an optional marker column.
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import UsageError
+from ..hand import JOINT_NAMES
+from .calibration import Calibration
+from .joints import JointMap, JointSamples, _check_finite, _check_time
+from .names import LABEL_COLUMN, MARKER_COLUMN, NO_MARKER, TIME_COLUMN
+
+# --- tables -------------------------------------------------------------------------------------
+
+
+def _table_columns(path: Path) -> dict[str, list]:
+    """Column name -> values (text for CSV, Python values for Parquet)."""
+    if path.suffix.lower() in (".parquet", ".pq"):
+        try:
+            import pyarrow.parquet as pq
+        except ImportError:
+            raise UsageError(
+                "reading Parquet needs pyarrow: pip install 'tactile-bullet[parquet]'"
+            ) from None
+        try:
+            table = pq.read_table(path)
+        except Exception as exc:  # noqa: BLE001 - a damaged file is the user's input
+            raise UsageError(f"{path} is not a readable Parquet file ({exc})") from None
+        return {name: table.column(name).to_pylist() for name in table.column_names}
+    import csv
+
+    try:
+        with open(path, newline="") as fh:
+            rows = list(csv.reader(fh))
+    except (OSError, UnicodeDecodeError, csv.Error) as exc:
+        raise UsageError(f"cannot read {path}: {exc}") from None
+    rows = [r for r in rows if r and not (len(r) == 1 and not r[0].strip())]
+    if not rows:
+        raise UsageError(f"{path} is empty")
+    header = [h.strip() for h in rows[0]]
+    body = rows[1:]
+    for k, row in enumerate(body):
+        if len(row) != len(header):
+            raise UsageError(
+                f"{path}: line {k + 2} has {len(row)} fields, the header {len(header)}"
+            )
+    return {h: [r[j] for r in body] for j, h in enumerate(header)}
+
+
+def _floats(values: list, where: str, what: str) -> np.ndarray:
+    try:
+        return np.array([float(v) if v not in ("", None) else math.nan for v in values], float)
+    except (TypeError, ValueError):
+        bad = next(v for v in values if not _is_number(v))
+        raise UsageError(f"{where}: {what} holds {bad!r}, not a number") from None
+
+
+def _is_number(value) -> bool:
+    try:
+        float(value)
+    except (TypeError, ValueError):
+        return False
+    return True
+
+
+def read_table(
+    path: str | Path,
+    marker: str | None = None,
+    calibration: Calibration | None = None,
+    time_column: str = TIME_COLUMN,
+) -> JointSamples:
+    """Joint states of a CSV or Parquet table (see the module docstring for its columns)."""
+    path = Path(path)
+    where = str(path)
+    if not path.is_file():
+        raise UsageError(f"recording {path} does not exist")
+    columns = _table_columns(path)
+    if time_column not in columns:
+        raise UsageError(f"{where} has no {time_column!r} column")
+    marker_column = marker if marker is not None else (
+        MARKER_COLUMN if MARKER_COLUMN in columns else None
+    )  # fmt: skip
+    if marker == NO_MARKER:
+        marker_column = None
+    if marker_column is not None and marker_column not in columns:
+        raise UsageError(f"{where} has no marker column {marker_column!r}")
+    reserved = {time_column, LABEL_COLUMN, MARKER_COLUMN, marker_column}
+    joints, effort_cols = [], {}
+    for name in columns:
+        if name in reserved or name.endswith("_velocity"):
+            continue
+        if name.endswith("_effort"):
+            effort_cols[name[: -len("_effort")]] = name
+        else:
+            joints.append(name)
+    unknown = [e for e in effort_cols if e not in joints]
+    if unknown:
+        raise UsageError(f"{where}: effort columns for no position column: {', '.join(unknown)}")
+    jmap = JointMap(joints, calibration, where)
+    time = _floats(columns[time_column], where, f"column {time_column!r}")
+    _check_time(time, where)
+    raw = np.column_stack([_floats(columns[j], where, f"column {j!r}") for j in joints])
+    missing = ~np.isfinite(raw)
+    if missing.any():
+        row, col = (int(v[0]) for v in np.nonzero(missing))
+        raise UsageError(f"{where}: joint {joints[col]} has no value on data row {row + 1}")
+    has_eff = len(effort_cols) == len(joints)
+    if effort_cols and not has_eff:
+        absent = [j for j in joints if j not in effort_cols]
+        raise UsageError(f"{where}: effort columns missing for {', '.join(absent)}")
+    if has_eff:
+        raw_eff = np.column_stack(
+            [_floats(columns[effort_cols[j]], where, f"column {effort_cols[j]!r}") for j in joints]
+        )
+        _check_finite(raw_eff, where, "efforts")
+        efforts = jmap.efforts(raw_eff)
+    else:
+        efforts = np.zeros((len(time), len(JOINT_NAMES)))
+    groups = None
+    if marker_column is not None:
+        groups = np.array([_group_key(v) for v in columns[marker_column]], dtype=object)
+    labels = [str(v) if v not in ("", None) else None for v in columns.get(LABEL_COLUMN, [])]
+    return JointSamples(
+        source=where,
+        time=time - time[0],
+        receive=time - time[0],
+        angles=jmap.positions(raw),
+        efforts=efforts,
+        has_efforts=has_eff,
+        row_groups=groups,
+        labels=labels,
+        coupled=jmap.coupled,
+        prefix=jmap.prefix,
+    )
+
+
+def _group_key(value):
+    """A marker cell as a grasp key; 0 (or empty) for rows between grasps."""
+    if value in ("", None):
+        return 0
+    try:
+        number = float(value)
+    except (TypeError, ValueError):
+        return str(value)
+    return 0 if number == 0 or not math.isfinite(number) else number

@@ -15,8 +15,8 @@ is a PyBullet extension of URDF (``radius``, ``length`` = the cylinder part, axi
 
 from __future__ import annotations
 
+import argparse
 import math
-import sys
 from pathlib import Path
 
 REPO = Path(__file__).resolve().parent.parent
@@ -298,8 +298,11 @@ def build() -> str:
     return "\n".join(parts)
 
 
-def main(argv: list[str]) -> int:
-    out = Path(argv[1]) if len(argv) > 1 else DEFAULT_OUT
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description="Write the Shadow hand URDF from docs/hand.md.")
+    parser.add_argument("out", nargs="?", type=Path, default=DEFAULT_OUT,
+                        help=f"where to write the URDF (default: {DEFAULT_OUT.relative_to(REPO)})")
+    out = parser.parse_args(argv).out
     out.parent.mkdir(parents=True, exist_ok=True)
     out.write_text(build())
     print(f"wrote {out}")
@@ -307,4 +310,4 @@ def main(argv: list[str]) -> int:
 
 
 if __name__ == "__main__":
-    raise SystemExit(main(sys.argv))
+    raise SystemExit(main())

@@ -10,9 +10,10 @@ scores each on every level of every protocol, and writes into ``out``:
 - ``table.txt``: the headline table a terminal shows.
 
 A row is ``{"protocol", "level", "descriptor", "classifier", "training", "accuracy",
-"headline", "test_records"}``: ``training`` is ``clean`` (the simulated grasps as they are) or
-``noise-aware`` (each also presented perturbed, ``robust.augment``); exactly one level per
-protocol is the headline.
+"headline", "test_records", "ambiguous"}`` (``ambiguous``: the shares of answers, of right and
+of wrong answers flagged by the pair's calibrated margin, ``learn/doubt.py``): ``training`` is
+``clean`` (the simulated grasps as they are) or ``noise-aware`` (each also presented
+perturbed, ``robust.augment``); exactly one level per protocol is the headline.
 """
 
 from __future__ import annotations
@@ -179,6 +180,7 @@ def run_benchmark(
 ) -> dict[str, Any]:
     """Run the benchmark (module doc); returns the ``benchmark.json`` document. ``quick``:
     True/False (the --quick flag) or a scale name of ``protocols.SCALES``."""
+    from ..learn.doubt import calibrate_margin
     from ..learn.robust import augment
     from ..plugins import compatible, get_classifier, get_descriptor
     from .reports import write_json, write_text_atomic
@@ -212,6 +214,7 @@ def run_benchmark(
         set_info[spec.name] = {"records": len(sets[spec.name]), "no_contact": missed}
     descs = {name: get_descriptor(name) for name in descriptors}
     fitted: dict[tuple, Any] = {}
+    thresholds: dict[tuple, float | None] = {}
     features: dict[tuple, np.ndarray] = {}
 
     def train_features(train_set: str, training: str, desc: str) -> tuple[np.ndarray, np.ndarray]:
@@ -243,14 +246,18 @@ def run_benchmark(
                     if key not in fitted:
                         x, y = train_features(protocol.train, training, desc)
                         fitted[key] = get_classifier(clf).fit(x, y)
-                    accuracy = None
+                        thresholds[key] = calibrate_margin(
+                            lambda c=clf: get_classifier(c), x, y, seed=seed
+                        )["margin"]
+                    accuracy, doubt = None, None
                     if x_test is not None:
-                        pred = np.asarray(fitted[key].predict(x_test)).astype(str)
+                        pred, doubt = _scored(fitted[key], x_test, y_test, thresholds[key])
                         accuracy = float(np.mean(pred == y_test))
                     rows.append({
                         "protocol": name, "level": level.name, "descriptor": desc,
                         "classifier": clf, "training": training, "accuracy": accuracy,
                         "headline": bool(level.headline), "test_records": len(test),
+                        "ambiguous": doubt,
                     })  # fmt: skip
         if bar is not None:
             bar.update(1)
@@ -268,6 +275,20 @@ def run_benchmark(
     figures = plot_curves(rows, table, out)
     doc["figures"] = [str(p) for p in figures]
     return doc
+
+
+def _scored(estimator, x_test, y_test, threshold) -> tuple[np.ndarray, dict[str, Any]]:
+    """Predicted names and the row's ``ambiguous`` figures: the pair's threshold (calibrated
+    on held-out folds of its training set, ``learn/doubt.py``) and the shares of all, right and
+    wrong answers it flags."""
+    from ..learn.doubt import flag_shares, flagged, margins
+
+    pred = np.asarray(estimator.predict(x_test)).astype(str)
+    classes = [str(c) for c in estimator.classes_]
+    proba = np.asarray(estimator.predict_proba(x_test), dtype=float)
+    m = margins(proba, np.array([classes.index(n) for n in pred]))[0]
+    shares = flag_shares(flagged(m, threshold), pred == np.asarray(y_test).astype(str))
+    return pred, {"margin": threshold, **shares}
 
 
 def _bar(total: int, show: bool):

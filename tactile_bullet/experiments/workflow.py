@@ -107,8 +107,12 @@ def train(
     classifier: str = "svm",
     params: Mapping[str, Any] | None = None,
     descriptor_params: Mapping[str, Any] | None = None,
+    doubt: bool = True,
 ):
     """Fit ``classifier`` (with estimator ``params``) on ``descriptor`` features of the records.
+
+    ``doubt``: also calibrate the model's ambiguity threshold on held-out folds of the records
+    (``learn/doubt.py``; costs ``doubt.FOLDS`` more fits), kept in ``info["doubt"]``.
 
     Returns a :class:`tactile_bullet.learn.models.Model` that remembers both names and
     parameters, so a saved model rebuilds the same features when it is loaded elsewhere."""
@@ -124,13 +128,21 @@ def train(
     reason = _incompatible(desc.name, classifier)
     if reason:
         raise UsageError(f"cannot train {classifier} on the {desc.name} descriptor: {reason}")
-    estimator = _fit(estimator, classifier, bool(params), desc.transform(records), y)
+    x = np.asarray(desc.transform(records), dtype=float)
+    estimator = _fit(estimator, classifier, bool(params), x, y)
+    info: dict[str, Any] = {}
+    if doubt:
+        from ..learn.doubt import calibrate_margin
+
+        # the ambiguity threshold, set on grasps each held out of a fit (learn/doubt.py)
+        info["doubt"] = calibrate_margin(lambda: _estimator(classifier, params), x, y)
     return Model(
         descriptor=desc.name,
         descriptor_params=dict(desc.params),
         classifier=classifier,
         classifier_params=dict(params or {}),
         estimator=estimator,
+        info=info,
     )
 
 
@@ -180,8 +192,10 @@ def evaluate(model, records: Iterable[GraspRecord]) -> dict[str, Any]:
             f"the data's shapes ({', '.join(sorted(set(y_true)))}) are none of the model's "
             f"classes ({', '.join(known)})"
         )
-    y_pred = predict(model, records)
+    y_pred, proba = model.predict_with_proba(records)
+    y_pred = np.asarray(y_pred).astype(str)
     doc = evaluation_report(y_true, y_pred, class_order(known, y_true), records)
+    doc["ambiguous"] = doubt_summary(model, y_true, y_pred, proba)
     unknown = sorted(set(y_true) - set(known))
     if unknown:
         doc["unknown_classes"] = unknown
@@ -192,6 +206,27 @@ def evaluate(model, records: Iterable[GraspRecord]) -> dict[str, Any]:
     doc["no_contact"] = sum(nothing_to_identify(r) is not None for r in records)
     doc["model"] = describe_model(model)
     return doc
+
+
+def doubt_summary(model, y_true, y_pred, proba) -> dict[str, Any]:
+    """``{"margin", "flagged", "right_flagged", "wrong_flagged"}``: the model's threshold and
+    the share of all, right and wrong answers it flags ambiguous (docs/json.md)."""
+    from ..learn.doubt import answer_doubt, flag_shares
+
+    threshold = model.doubt_margin
+    classes = [str(c) for c in model.classes]
+    flags = np.array(
+        [
+            answer_doubt(classes, str(name), None if proba is None else proba[i], threshold)[
+                "ambiguous"
+            ]
+            is not None
+            for i, name in enumerate(y_pred)
+        ],
+        dtype=bool,
+    )
+    correct = np.asarray(y_pred).astype(str) == np.asarray(y_true).astype(str)
+    return {"margin": threshold, **flag_shares(flags, correct)}
 
 
 def describe_model(model) -> dict[str, Any]:
@@ -205,14 +240,17 @@ def describe_model(model) -> dict[str, Any]:
 
 
 def identify(model, record: GraspRecord) -> dict[str, Any]:
-    """Name the shape of one grasp: ``{"shape", "probabilities": {class: p}}``; a grasp
-    that touched too little gets no name: ``{"shape": None, "reason", "probabilities": {}}``
-    (:mod:`tactile_bullet.perception.contact`)."""
+    """Name the shape of one grasp: ``{"shape", "probabilities": {class: p}, "margin",
+    "ambiguous"}`` (``ambiguous`` ``[shape, runner-up]`` where the two best are within the
+    model's calibrated margin, else None: ``learn/doubt.py``); a grasp that touched too little
+    gets no name: ``{"shape": None, "reason", "probabilities": {}, "margin": None,
+    "ambiguous": None}`` (:mod:`tactile_bullet.perception.contact`)."""
     from ..perception.contact import nothing_to_identify
 
     reason = nothing_to_identify(record)
     if reason is not None:
-        return {"shape": None, "reason": reason, "probabilities": {}}
+        return {"shape": None, "reason": reason, "probabilities": {}, "margin": None,
+                "ambiguous": None}  # fmt: skip
     classes = [str(c) for c in model.classes]
     names, proba = model.predict_with_proba([record])
     shape = str(names[0])
@@ -220,7 +258,10 @@ def identify(model, record: GraspRecord) -> dict[str, Any]:
         probabilities = {c: float(c == shape) for c in classes}
     else:
         probabilities = {c: float(p) for c, p in zip(classes, proba[0], strict=True)}
-    return {"shape": shape, "probabilities": probabilities}
+    from ..learn.doubt import answer_doubt
+
+    doubt = answer_doubt(classes, shape, None if proba is None else proba[0], model.doubt_margin)
+    return {"shape": shape, "probabilities": probabilities, **doubt}
 
 
 # --- compare ------------------------------------------------------------------------------------
@@ -234,8 +275,12 @@ def compare(
     seed: int = 0,
     test_fraction: float = 0.3,
     on_pair: Callable[[dict[str, Any]], None] | None = None,
+    doubt: bool = True,
 ) -> list[dict[str, Any]]:
     """Accuracy and cost of every descriptor x classifier pair on the same train/test data.
+
+    ``doubt``: each row also gets ``ambiguous`` (:func:`pair_doubt`: the pair's threshold,
+    calibrated on held-out folds of the training set, and the shares of test answers flagged).
 
     Without ``test_records`` the training records are split (seeded, stratified by shape).
     ``fit_time_s`` is the classifier's fit on precomputed features; ``predict_latency_ms`` the
@@ -283,10 +328,29 @@ def compare(
                 "train_records": len(train_records),
                 "test_records": len(test_records),
             }
+            if doubt:
+                row["ambiguous"] = pair_doubt(name, estimator, x_train, y_train, x_test, y_test)
             rows.append(row)
             if on_pair is not None:
                 on_pair(row)
     return rows
+
+
+def pair_doubt(classifier: str, estimator, x_train, y_train, x_test, y_test) -> dict[str, Any]:
+    """A fitted pair's doubt on a test set: its threshold (calibrated on held-out folds of the
+    training features, ``learn/doubt.py``) and the share of all, right and wrong test answers
+    flagged; ``reason`` instead of a threshold where it could not be calibrated."""
+    from ..learn.doubt import calibrate_margin, flag_shares, flagged, margins
+
+    calibration = calibrate_margin(lambda: _estimator(classifier, None), x_train, y_train)
+    names = np.asarray(estimator.predict(x_test)).astype(str)
+    classes = [str(c) for c in estimator.classes_]
+    proba = np.asarray(estimator.predict_proba(x_test), dtype=float)
+    m = margins(proba, np.array([classes.index(n) for n in names]))[0]
+    doc = {"margin": calibration["margin"]}
+    if calibration["margin"] is None:
+        doc["reason"] = calibration.get("reason")
+    return {**doc, **flag_shares(flagged(m, calibration["margin"]), names == np.asarray(y_test))}
 
 
 def _incompatible(descriptor: str, classifier: str) -> str | None:

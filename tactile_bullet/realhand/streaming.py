@@ -198,21 +198,29 @@ class Identifier:
 
     def result(self) -> dict[str, Any]:
         """``shape`` (None until the grasp is over), ``probabilities`` (of the grasp so far),
-        ``rotation_deg`` (calibrated object rotation, None where unknown), ``grasp_over``,
+        ``margin`` and ``ambiguous`` (as in ``workflow.identify``; None until the grasp is
+        over), ``rotation_deg`` (calibrated object rotation, None where unknown), ``grasp_over``,
         and ``samples`` (messages in the grasp)."""
         if self._cache is not None:
             return self._cache
         seg = self._segmenter
         record = self.current_record()
         if record is None:
-            doc = {"shape": None, "probabilities": {}, "rotation_deg": None,
-                   "grasp_over": False, "samples": 0}  # fmt: skip
+            doc = {"shape": None, "probabilities": {}, "margin": None, "ambiguous": None,
+                   "rotation_deg": None, "grasp_over": False, "samples": 0}  # fmt: skip
         else:
             over = not seg.closing or seg.settled
             answer, probabilities = self._predict(record, decide=over)
+            doubt = {"margin": None, "ambiguous": None}
+            if over and answer is not None:
+                from ..learn.doubt import answer_doubt
+
+                proba = np.array([probabilities[c] for c in self._classes])
+                doubt = answer_doubt(self._classes, answer, proba, self.model.doubt_margin)
             doc = {
                 "shape": answer if over else None,
                 "probabilities": probabilities,
+                **doubt,
                 "rotation_deg": _rotation(record, answer) if over else None,
                 "grasp_over": over,
                 "samples": int(record.time.size),

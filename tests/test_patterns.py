@@ -145,6 +145,7 @@ def test_signature_summary_has_the_grasp_json_fields(grasps):
     assert set(summary) == {
         "alpha_deg", "rotation_estimate_deg", "identified", "identified_uncorrected",
         "nearest_pattern", "distances", "in_identification_range", "correction",
+        "rotation_deg", "rotation_family",
     }  # fmt: skip
     assert summary["correction"]["detector"] == "dynamic"
     assert set(summary["distances"]) == set(default_library())
@@ -178,3 +179,20 @@ def test_identification_ranges_lie_inside_the_valid_ranges(capsys):
             assert p["identification_range"] == [lo, hi]
     assert main(["shapes"]) == 0
     assert "identified without training in" in capsys.readouterr().out
+
+
+def test_rotation_from_the_grasp_alone_follows_a_turned_cylinder():
+    """The object turned about the palm normal, its shape unknown: the end-to-end reading
+    (tools/rotation_end_to_end.py) picks the cylinder's line and lands within a few degrees,
+    and turning the object further reads larger."""
+    from tactile_bullet.perception.summary import rotation_from_grasp
+    from tactile_bullet.records import Pose
+    from tactile_bullet.sim.grasp import simulate_grasp
+
+    read = {}
+    for deg in (0, 20):
+        rec = simulate_grasp("cylinder", {}, Pose(rotation=np.radians(deg)))
+        read[deg], family = rotation_from_grasp(rec)
+        assert family == "cylinder"
+        assert read[deg] == pytest.approx(deg, abs=3.0)
+    assert read[20] - read[0] > 15

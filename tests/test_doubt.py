@@ -95,3 +95,34 @@ def test_compare_rows_carry_the_share_of_answers_flagged(synthetic_split):
     (row,) = workflow.compare(train, test, ("signature",), ("knn",))
     assert row["ambiguous"]["margin"] is not None
     assert 0.0 <= row["ambiguous"]["flagged"] <= 1.0
+
+
+def test_a_contradicting_second_opinion_makes_the_answer_ambiguous():
+    classes = ["cone", "cylinder", "sphere"]
+    proba = np.array([0.9, 0.05, 0.05])  # a large margin: the margin alone raises no doubt
+    assert doubt.answer_doubt(classes, "cone", proba, 0.3, "cone")["ambiguous"] is None
+    found = doubt.answer_doubt(classes, "cone", proba, 0.3, "cylinder")
+    assert found["ambiguous"] == ["cone", "cylinder"] and found["cross_check"] == "cylinder"
+    # below the margin the runner-up is named, whatever the second opinion
+    low = doubt.answer_doubt(classes, "cone", np.array([0.5, 0.1, 0.4]), 0.3, "cylinder")
+    assert low["ambiguous"] == ["cone", "sphere"]
+
+
+def test_the_second_opinion_is_kept_only_where_it_keeps_the_promise(synthetic_split, monkeypatch):
+    train, _ = synthetic_split
+    truth = np.array([r.shape for r in train])
+    monkeypatch.setattr(doubt, "cross_check_names", lambda recs, classes: truth[: len(recs)])
+    svm = workflow.train(train, "signature", "svm")
+    assert svm.info["doubt"]["cross_check"] == "shape-fit"
+    # both rules together keep to the promised share of held-out right answers
+    assert svm.info["doubt"]["right_flagged"] <= doubt.FALSE_ALARM
+    # a second opinion that contradicts a third of the right answers is left out
+    bad = truth.copy()
+    bad[::3] = np.where(bad[::3] == "cone", "sphere", "cone")
+    monkeypatch.setattr(doubt, "cross_check_names", lambda recs, classes: bad[: len(recs)])
+    svm = workflow.train(train, "signature", "svm")
+    assert svm.info["doubt"]["cross_check"] is None
+    assert svm.info["doubt"]["cross_check_rejected"] > 0.2
+    # the shape fit does not second itself
+    fit = workflow.train(train, "raw-joints", "shape-fit")
+    assert fit.info["doubt"]["cross_check"] is None

@@ -287,8 +287,8 @@ def test_streaming_names_the_shape_once_the_grasp_is_held(model, held_out_record
 
     ident = Identifier.load(model)
     assert ident.result() == {"shape": None, "probabilities": {}, "margin": None,
-                              "ambiguous": None, "rotation_deg": None, "grasp_over": False,
-                              "samples": 0}  # fmt: skip
+                              "ambiguous": None, "cross_check": None, "rotation_deg": None,
+                              "grasp_over": False, "samples": 0}  # fmt: skip
     t0 = 0.0
     want = workflow.predict(model, held_out_records)
     for rec, expected in zip(held_out_records, want, strict=True):
@@ -302,6 +302,7 @@ def test_streaming_names_the_shape_once_the_grasp_is_held(model, held_out_record
         # the same doubt as a one-off identification (the model's calibrated margin)
         assert out["margin"] == pytest.approx(once["margin"], abs=1e-9)
         assert out["ambiguous"] == once["ambiguous"]
+        assert out["cross_check"] == once["cross_check"]
         t0 += 1.0  # silence before the next grasp
 
 

@@ -180,7 +180,7 @@ def run_benchmark(
 ) -> dict[str, Any]:
     """Run the benchmark (module doc); returns the ``benchmark.json`` document. ``quick``:
     True/False (the --quick flag) or a scale name of ``protocols.SCALES``."""
-    from ..learn.doubt import calibrate_margin
+    from ..learn.doubt import calibrate_margin, cross_check_names
     from ..learn.robust import augment
     from ..plugins import compatible, get_classifier, get_descriptor
     from .reports import write_json, write_text_atomic
@@ -214,7 +214,8 @@ def run_benchmark(
         set_info[spec.name] = {"records": len(sets[spec.name]), "no_contact": missed}
     descs = {name: get_descriptor(name) for name in descriptors}
     fitted: dict[tuple, Any] = {}
-    thresholds: dict[tuple, float | None] = {}
+    thresholds: dict[tuple, dict[str, Any]] = {}
+    kept_records: dict[tuple, list[GraspRecord]] = {}
     features: dict[tuple, np.ndarray] = {}
 
     def train_features(train_set: str, training: str, desc: str) -> tuple[np.ndarray, np.ndarray]:
@@ -225,6 +226,7 @@ def run_benchmark(
                 records = augment(records, seed=seed)
             features[key] = np.asarray(descs[desc].transform(records), float)
             features[key + ("y",)] = labels_of(records)
+            kept_records[key] = records
         return features[key], features[key + ("y",)]
 
     rows: list[dict[str, Any]] = []
@@ -236,6 +238,7 @@ def run_benchmark(
         if not level.sensor.is_clean:
             test = perturb_all(test, level.sensor, level_seed(name, level.name, seed))
         y_test = labels_of(test)
+        seconds = None
         for desc in descriptors:
             x_test = np.asarray(descs[desc].transform(test), float) if test else None
             for clf in classifiers:
@@ -247,11 +250,20 @@ def run_benchmark(
                         x, y = train_features(protocol.train, training, desc)
                         fitted[key] = get_classifier(clf).fit(x, y)
                         thresholds[key] = calibrate_margin(
-                            lambda c=clf: get_classifier(c), x, y, seed=seed
-                        )["margin"]
+                            lambda c=clf: get_classifier(c), x, y, seed=seed,
+                            records=kept_records[(protocol.train, training, desc)],
+                            classifier=clf,
+                        )  # fmt: skip
                     accuracy, doubt = None, None
                     if x_test is not None:
-                        pred, doubt = _scored(fitted[key], x_test, y_test, thresholds[key])
+                        second = None
+                        if thresholds[key]["cross_check"] is not None:
+                            if seconds is None:  # the shape fit's answers, read once a level
+                                classes = sorted(str(c) for c in fitted[key].classes_)
+                                seconds = cross_check_names(test, classes)
+                            second = seconds
+                        pred, doubt = _scored(fitted[key], x_test, y_test, thresholds[key],
+                                              second)  # fmt: skip
                         accuracy = float(np.mean(pred == y_test))
                     rows.append({
                         "protocol": name, "level": level.name, "descriptor": desc,
@@ -277,18 +289,24 @@ def run_benchmark(
     return doc
 
 
-def _scored(estimator, x_test, y_test, threshold) -> tuple[np.ndarray, dict[str, Any]]:
+def _scored(
+    estimator, x_test, y_test, calibration: Mapping[str, Any], seconds=None
+) -> tuple[np.ndarray, dict[str, Any]]:
     """Predicted names and the row's ``ambiguous`` figures: the pair's threshold (calibrated
-    on held-out folds of its training set, ``learn/doubt.py``) and the shares of all, right and
-    wrong answers it flags."""
+    on held-out folds of its training set, ``learn/doubt.py``), its cross-check (the shape
+    fit's answers ``seconds``) and the shares of all, right and wrong answers flagged."""
     from ..learn.doubt import flag_shares, flagged, margins
 
+    threshold = calibration["margin"]
     pred = np.asarray(estimator.predict(x_test)).astype(str)
     classes = [str(c) for c in estimator.classes_]
     proba = np.asarray(estimator.predict_proba(x_test), dtype=float)
     m = margins(proba, np.array([classes.index(n) for n in pred]))[0]
-    shares = flag_shares(flagged(m, threshold), pred == np.asarray(y_test).astype(str))
-    return pred, {"margin": threshold, **shares}
+    flags = flagged(m, threshold)
+    if seconds is not None:
+        flags = flags | ((np.asarray(seconds) != "") & (np.asarray(seconds) != pred))
+    shares = flag_shares(flags, pred == np.asarray(y_test).astype(str))
+    return pred, {"margin": threshold, "cross_check": calibration["cross_check"], **shares}
 
 
 def _bar(total: int, show: bool):

@@ -135,7 +135,9 @@ def train(
         from ..learn.doubt import calibrate_margin
 
         # the ambiguity threshold, set on grasps each held out of a fit (learn/doubt.py)
-        info["doubt"] = calibrate_margin(lambda: _estimator(classifier, params), x, y)
+        info["doubt"] = calibrate_margin(
+            lambda: _estimator(classifier, params), x, y, records=records, classifier=classifier
+        )
     return Model(
         descriptor=desc.name,
         descriptor_params=dict(desc.params),
@@ -195,7 +197,7 @@ def evaluate(model, records: Iterable[GraspRecord]) -> dict[str, Any]:
     y_pred, proba = model.predict_with_proba(records)
     y_pred = np.asarray(y_pred).astype(str)
     doc = evaluation_report(y_true, y_pred, class_order(known, y_true), records)
-    doc["ambiguous"] = doubt_summary(model, y_true, y_pred, proba)
+    doc["ambiguous"] = doubt_summary(model, records, y_true, y_pred, proba)
     unknown = sorted(set(y_true) - set(known))
     if unknown:
         doc["unknown_classes"] = unknown
@@ -208,25 +210,17 @@ def evaluate(model, records: Iterable[GraspRecord]) -> dict[str, Any]:
     return doc
 
 
-def doubt_summary(model, y_true, y_pred, proba) -> dict[str, Any]:
-    """``{"margin", "flagged", "right_flagged", "wrong_flagged"}``: the model's threshold and
-    the share of all, right and wrong answers it flags ambiguous (docs/json.md)."""
-    from ..learn.doubt import answer_doubt, flag_shares
+def doubt_summary(model, records, y_true, y_pred, proba) -> dict[str, Any]:
+    """``{"margin", "cross_check", "flagged", "right_flagged", "wrong_flagged"}``: the model's
+    threshold, its second opinion, and the share of all, right and wrong answers flagged
+    ambiguous (docs/json.md)."""
+    from ..learn.doubt import CROSS_CHECK, doubts, flag_shares, model_cross_check
 
-    threshold = model.doubt_margin
-    classes = [str(c) for c in model.classes]
-    flags = np.array(
-        [
-            answer_doubt(classes, str(name), None if proba is None else proba[i], threshold)[
-                "ambiguous"
-            ]
-            is not None
-            for i, name in enumerate(y_pred)
-        ],
-        dtype=bool,
-    )
+    found = doubts(model, records, y_pred, proba)
+    flags = np.array([d["ambiguous"] is not None for d in found], dtype=bool)
     correct = np.asarray(y_pred).astype(str) == np.asarray(y_true).astype(str)
-    return {"margin": threshold, **flag_shares(flags, correct)}
+    cross = CROSS_CHECK if model_cross_check(model.info) else None
+    return {"margin": model.doubt_margin, "cross_check": cross, **flag_shares(flags, correct)}
 
 
 def describe_model(model) -> dict[str, Any]:
@@ -250,7 +244,7 @@ def identify(model, record: GraspRecord) -> dict[str, Any]:
     reason = nothing_to_identify(record)
     if reason is not None:
         return {"shape": None, "reason": reason, "probabilities": {}, "margin": None,
-                "ambiguous": None}  # fmt: skip
+                "ambiguous": None, "cross_check": None}  # fmt: skip
     classes = [str(c) for c in model.classes]
     names, proba = model.predict_with_proba([record])
     shape = str(names[0])
@@ -258,9 +252,9 @@ def identify(model, record: GraspRecord) -> dict[str, Any]:
         probabilities = {c: float(c == shape) for c in classes}
     else:
         probabilities = {c: float(p) for c, p in zip(classes, proba[0], strict=True)}
-    from ..learn.doubt import answer_doubt
+    from ..learn.doubt import doubts
 
-    doubt = answer_doubt(classes, shape, None if proba is None else proba[0], model.doubt_margin)
+    (doubt,) = doubts(model, [record], [shape], proba)
     return {"shape": shape, "probabilities": probabilities, **doubt}
 
 
@@ -307,6 +301,9 @@ def compare(
     # resolve every name up front so a typo fails before minutes of fitting
     descs = [get_descriptor(d) for d in descriptors]
     _check_classifiers(classifiers)
+    from ..learn.doubt import cross_check_applies, cross_check_names
+
+    seconds: dict[str, np.ndarray] = {}  # the shape fit's answers on the test set, read once
     rows = []
     for desc in descs:
         x_train, x_test = desc.transform(train_records), desc.transform(test_records)
@@ -329,28 +326,43 @@ def compare(
                 "test_records": len(test_records),
             }
             if doubt:
-                row["ambiguous"] = pair_doubt(name, estimator, x_train, y_train, x_test, y_test)
+                if name not in seconds and cross_check_applies(sorted(set(y_train)), name):
+                    seconds[name] = cross_check_names(test_records, sorted(set(y_train)))
+                row["ambiguous"] = pair_doubt(
+                    name, estimator, (x_train, y_train, train_records), x_test, y_test,
+                    seconds.get(name),
+                )  # fmt: skip
             rows.append(row)
             if on_pair is not None:
                 on_pair(row)
     return rows
 
 
-def pair_doubt(classifier: str, estimator, x_train, y_train, x_test, y_test) -> dict[str, Any]:
+def pair_doubt(
+    classifier: str, estimator, train: tuple, x_test, y_test, seconds=None
+) -> dict[str, Any]:
     """A fitted pair's doubt on a test set: its threshold (calibrated on held-out folds of the
-    training features, ``learn/doubt.py``) and the share of all, right and wrong test answers
+    training set ``(features, labels, records)``, ``learn/doubt.py``), the cross-check's test
+    answers ``seconds`` where it applies, and the share of all, right and wrong test answers
     flagged; ``reason`` instead of a threshold where it could not be calibrated."""
     from ..learn.doubt import calibrate_margin, flag_shares, flagged, margins
 
-    calibration = calibrate_margin(lambda: _estimator(classifier, None), x_train, y_train)
+    x_train, y_train, records = train
+    calibration = calibrate_margin(
+        lambda: _estimator(classifier, None), x_train, y_train,
+        records=records if seconds is not None else None, classifier=classifier,
+    )  # fmt: skip
     names = np.asarray(estimator.predict(x_test)).astype(str)
     classes = [str(c) for c in estimator.classes_]
     proba = np.asarray(estimator.predict_proba(x_test), dtype=float)
     m = margins(proba, np.array([classes.index(n) for n in names]))[0]
-    doc = {"margin": calibration["margin"]}
+    flags = flagged(m, calibration["margin"])
+    if calibration["cross_check"] is not None and seconds is not None:
+        flags = flags | ((np.asarray(seconds) != "") & (np.asarray(seconds) != names))
+    doc = {"margin": calibration["margin"], "cross_check": calibration["cross_check"]}
     if calibration["margin"] is None:
         doc["reason"] = calibration.get("reason")
-    return {**doc, **flag_shares(flagged(m, calibration["margin"]), names == np.asarray(y_test))}
+    return {**doc, **flag_shares(flags, names == np.asarray(y_test))}
 
 
 def _incompatible(descriptor: str, classifier: str) -> str | None:

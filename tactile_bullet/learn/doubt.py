@@ -12,6 +12,15 @@ threshold is set so that at most ``FALSE_ALARM`` of those held-out *right* answe
 (the largest threshold that keeps that promise, so as many wrong answers as possible are
 flagged). It is stored in the model file's ``info["doubt"]``; a model written before it existed
 loads without one and then flags nothing (its answers still carry their margin).
+
+The margin alone misses the errors that matter most: an SVM on signatures, or any model on
+grasps from a shifted simulator, is wrong *with* a large margin (tools/doubt_report.py: 0 of 21
+wrong answers flagged). So a model whose classes the training-free shape fit can model is also
+*cross-checked*: the shape fit (``perception/shape_fit.py``, which learns nothing from the
+training data and reads the absolute joint angles) names the grasp too, and an answer it
+contradicts is ambiguous between the two names. The margin threshold is then calibrated so that
+both rules together flag at most ``FALSE_ALARM`` of the held-out right answers; where the
+cross-check alone would flag more (grasps it does not model well), it is left out.
 """
 
 from __future__ import annotations
@@ -25,6 +34,34 @@ FALSE_ALARM = 0.05
 """Share of held-out right answers the calibrated threshold may flag."""
 FOLDS = 3
 """Held-out folds of the calibration (each grasp is predicted once, by a fit without it)."""
+CROSS_CHECK = "shape-fit"
+"""The independent second opinion (the training-free shape fit)."""
+CROSS_CHECK_SAMPLES = 200
+"""Training grasps the cross-check reads while calibrating (a shape fit takes ~60 ms)."""
+
+
+def cross_check_applies(classes: Sequence[str], classifier: str) -> bool:
+    """Whether the shape fit can second a model: every class one of its families, and the
+    model not the shape fit itself."""
+    from ..perception.shape_fit import fitted_shapes
+
+    known = set(fitted_shapes())
+    return classifier != CROSS_CHECK and all(str(c) in known for c in classes)
+
+
+def cross_check_names(records: Sequence, classes: Sequence[str]) -> np.ndarray:
+    """The shape fit's answer among ``classes`` for each record ('' where it cannot read one)."""
+    from ..errors import UsageError
+    from ..perception.shape_fit import fit_shape
+
+    families = [str(c) for c in classes]
+    out = []
+    for rec in records:
+        try:
+            out.append(fit_shape(rec.fci_angles(), families).shape)
+        except UsageError:
+            out.append("")
+    return np.array(out, dtype=object).astype(str)
 
 
 def margins(proba: np.ndarray, decided: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -115,23 +152,48 @@ def calibrate_margin(
     folds: int = FOLDS,
     false_alarm: float = FALSE_ALARM,
     seed: int = 0,
+    records: Sequence | None = None,
+    classifier: str = "",
 ) -> dict[str, Any]:
     """The model file's ``info["doubt"]``: ``margin`` (the threshold, None when it could not
-    be calibrated, with ``reason``), the held-out figures it was set on, and how."""
+    be calibrated, with ``reason``), ``cross_check`` (``"shape-fit"`` or None: given the
+    training ``records`` and a model the shape fit can second), the held-out figures it was
+    set on, and how."""
     found = held_out_margins(make, x, y, folds, seed)
-    doc: dict[str, Any] = {"false_alarm": float(false_alarm), "folds": int(folds)}
+    doc: dict[str, Any] = {"false_alarm": float(false_alarm), "folds": int(folds),
+                           "cross_check": None}  # fmt: skip
     if isinstance(found, str):
         return {**doc, "margin": None, "reason": found}
     m, right = found
-    threshold = threshold_for(m[right], false_alarm)
-    shares = flag_shares(flagged(m, threshold), right)
+    y = np.asarray(y).astype(str)
+    keep = np.arange(len(y))
+    seconded = np.zeros(len(y), dtype=bool)
+    if records is not None and cross_check_applies(sorted(set(y)), classifier):
+        if len(keep) > CROSS_CHECK_SAMPLES:
+            keep = np.sort(np.random.default_rng(seed).choice(len(y), CROSS_CHECK_SAMPLES, False))
+        other = cross_check_names([records[i] for i in keep], sorted(set(y)))
+        # a right held-out answer is the true label: the cross-check contradicts it where it
+        # names another shape (or none)
+        seconded[keep] = (other != y[keep]) & right[keep]
+        contradicted = int(seconded[keep].sum())
+        if contradicted <= int(np.floor(false_alarm * right[keep].sum())):
+            doc["cross_check"] = CROSS_CHECK
+        else:  # it alone would break the promise (a hand it does not model): margin only
+            doc["cross_check_rejected"] = contradicted / max(1, int(right[keep].sum()))
+            seconded[:] = False
+    m, right, seconded = m[keep], right[keep], seconded[keep]
+    # the margin's share of right answers is what the cross-check leaves of the budget
+    budget = int(np.floor(false_alarm * right.sum())) - int(seconded.sum())
+    pool = np.sort(m[right & ~seconded])
+    threshold = -1.0 if budget < 0 or pool.size == 0 else float(pool[min(budget, pool.size - 1)])
+    shares = flag_shares(flagged(m, threshold) | seconded, right)
     return {
         **doc,
         "margin": threshold,
         "held_out": int(len(m)),
         "held_out_wrong": int((~right).sum()),
         "right_flagged": shares["right_flagged"],
-        "wrong_flagged": shares["wrong_flagged"],
+        "wrong_flagged": shares["wrong_flagged"] if doc["cross_check"] is None else None,
     }
 
 
@@ -148,18 +210,45 @@ def model_threshold(info: dict) -> float | None:
 
 
 def answer_doubt(
-    classes: Sequence[str], shape: str, proba: np.ndarray | None, threshold: float | None
+    classes: Sequence[str],
+    shape: str,
+    proba: np.ndarray | None,
+    threshold: float | None,
+    second_opinion: str | None = None,
 ) -> dict[str, Any]:
-    """``{"margin", "ambiguous"}`` of one answer: ``ambiguous`` is ``[shape, runner-up]`` when
-    the margin is below the threshold, else None; without probabilities the margin is None."""
-    if proba is None or len(classes) < 2:
-        return {"margin": None, "ambiguous": None}
+    """``{"margin", "ambiguous", "cross_check"}`` of one answer: ``ambiguous`` is ``[shape,
+    runner-up]`` when the margin is below the threshold, else ``[shape, second_opinion]`` when
+    the cross-check names another shape, else None; without probabilities the margin is None.
+    ``cross_check`` is the second opinion (None where none was asked)."""
+    opinion = second_opinion or None
+    out: dict[str, Any] = {"margin": None, "ambiguous": None, "cross_check": opinion}
     classes = [str(c) for c in classes]
-    decided = classes.index(shape)
-    m, second = margins(np.asarray(proba, dtype=float)[None, :], np.array([decided]))
-    margin = float(m[0])
-    doubtful = bool(flagged(margin, threshold))
-    return {
-        "margin": margin,
-        "ambiguous": [shape, classes[int(second[0])]] if doubtful else None,
-    }
+    if proba is not None and len(classes) >= 2:
+        decided = classes.index(shape)
+        m, second = margins(np.asarray(proba, dtype=float)[None, :], np.array([decided]))
+        out["margin"] = float(m[0])
+        if bool(flagged(out["margin"], threshold)):
+            out["ambiguous"] = [shape, classes[int(second[0])]]
+    if out["ambiguous"] is None and opinion is not None and opinion != shape:
+        out["ambiguous"] = [shape, opinion]
+    return out
+
+
+def model_cross_check(info: dict) -> bool:
+    """Whether a model's calibration asked for the shape fit's second opinion."""
+    doubt = info.get("doubt") if isinstance(info, dict) else None
+    return isinstance(doubt, dict) and doubt.get("cross_check") == CROSS_CHECK
+
+
+def doubts(model, records: Sequence, names: Sequence[str], proba: np.ndarray | None) -> list:
+    """:func:`answer_doubt` of each of a model's answers, with the cross-check the model's
+    calibration asked for."""
+    classes = [str(c) for c in model.classes]
+    threshold = model.doubt_margin
+    others: Sequence[str | None] = [None] * len(names)
+    if model_cross_check(model.info) and len(records):
+        others = list(cross_check_names(records, classes))
+    return [
+        answer_doubt(classes, str(n), None if proba is None else proba[i], threshold, others[i])
+        for i, n in enumerate(names)
+    ]

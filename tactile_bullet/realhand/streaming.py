@@ -198,8 +198,9 @@ class Identifier:
 
     def result(self) -> dict[str, Any]:
         """``shape`` (None until the grasp is over), ``probabilities`` (of the grasp so far),
-        ``margin`` and ``ambiguous`` (as in ``workflow.identify``; None until the grasp is
-        over), ``rotation_deg`` (calibrated object rotation, None where unknown), ``grasp_over``,
+        ``margin``, ``ambiguous`` and ``cross_check`` (as in ``workflow.identify``; None until
+        the grasp is over: the shape fit's cross-check adds ~60 ms then), ``rotation_deg``
+        (calibrated object rotation, None where unknown), ``grasp_over``,
         and ``samples`` (messages in the grasp)."""
         if self._cache is not None:
             return self._cache
@@ -207,16 +208,17 @@ class Identifier:
         record = self.current_record()
         if record is None:
             doc = {"shape": None, "probabilities": {}, "margin": None, "ambiguous": None,
-                   "rotation_deg": None, "grasp_over": False, "samples": 0}  # fmt: skip
+                   "cross_check": None, "rotation_deg": None, "grasp_over": False,
+                   "samples": 0}  # fmt: skip
         else:
             over = not seg.closing or seg.settled
             answer, probabilities = self._predict(record, decide=over)
-            doubt = {"margin": None, "ambiguous": None}
+            doubt = {"margin": None, "ambiguous": None, "cross_check": None}
             if over and answer is not None:
-                from ..learn.doubt import answer_doubt
+                from ..learn.doubt import doubts
 
-                proba = np.array([probabilities[c] for c in self._classes])
-                doubt = answer_doubt(self._classes, answer, proba, self.model.doubt_margin)
+                proba = np.array([[probabilities[c] for c in self._classes]])
+                (doubt,) = doubts(self.model, [record], [answer], proba)
             doc = {
                 "shape": answer if over else None,
                 "probabilities": probabilities,

@@ -36,7 +36,7 @@ FOLDS = 3
 """Held-out folds of the calibration (each grasp is predicted once, by a fit without it)."""
 CROSS_CHECK = "shape-fit"
 """The independent second opinion (the training-free shape fit)."""
-CROSS_CHECK_SAMPLES = 200
+CROSS_CHECK_SAMPLES = 100
 """Training grasps the cross-check reads while calibrating (a shape fit takes ~60 ms)."""
 
 

@@ -295,7 +295,7 @@ def _scored(
     """Predicted names and the row's ``ambiguous`` figures: the pair's threshold (calibrated
     on held-out folds of its training set, ``learn/doubt.py``), its cross-check (the shape
     fit's answers ``seconds``) and the shares of all, right and wrong answers flagged."""
-    from ..learn.doubt import flag_shares, flagged, margins
+    from ..learn.doubt import cross_flags, flag_shares, flagged, margins
 
     threshold = calibration["margin"]
     pred = np.asarray(estimator.predict(x_test)).astype(str)
@@ -304,7 +304,7 @@ def _scored(
     m = margins(proba, np.array([classes.index(n) for n in pred]))[0]
     flags = flagged(m, threshold)
     if seconds is not None:
-        flags = flags | ((np.asarray(seconds) != "") & (np.asarray(seconds) != pred))
+        flags = flags | cross_flags(pred, seconds)
     shares = flag_shares(flags, pred == np.asarray(y_test).astype(str))
     return pred, {"margin": threshold, "cross_check": calibration["cross_check"], **shares}
 

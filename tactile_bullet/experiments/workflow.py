@@ -345,7 +345,7 @@ def pair_doubt(
     training set ``(features, labels, records)``, ``learn/doubt.py``), the cross-check's test
     answers ``seconds`` where it applies, and the share of all, right and wrong test answers
     flagged; ``reason`` instead of a threshold where it could not be calibrated."""
-    from ..learn.doubt import calibrate_margin, flag_shares, flagged, margins
+    from ..learn.doubt import calibrate_margin, cross_flags, flag_shares, flagged, margins
 
     x_train, y_train, records = train
     calibration = calibrate_margin(
@@ -358,7 +358,7 @@ def pair_doubt(
     m = margins(proba, np.array([classes.index(n) for n in names]))[0]
     flags = flagged(m, calibration["margin"])
     if calibration["cross_check"] is not None and seconds is not None:
-        flags = flags | ((np.asarray(seconds) != "") & (np.asarray(seconds) != names))
+        flags = flags | cross_flags(names, seconds)
     doc = {"margin": calibration["margin"], "cross_check": calibration["cross_check"]}
     if calibration["margin"] is None:
         doc["reason"] = calibration.get("reason")

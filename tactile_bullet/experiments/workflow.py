@@ -197,7 +197,9 @@ def evaluate(model, records: Iterable[GraspRecord]) -> dict[str, Any]:
     y_pred, proba = model.predict_with_proba(records)
     y_pred = np.asarray(y_pred).astype(str)
     doc = evaluation_report(y_true, y_pred, class_order(known, y_true), records)
-    doc["ambiguous"] = doubt_summary(model, records, y_true, y_pred, proba)
+    from ..learn.doubt import evaluation_doubt
+
+    doc["ambiguous"] = evaluation_doubt(model, records, y_true, y_pred, proba)
     unknown = sorted(set(y_true) - set(known))
     if unknown:
         doc["unknown_classes"] = unknown
@@ -208,19 +210,6 @@ def evaluate(model, records: Iterable[GraspRecord]) -> dict[str, Any]:
     doc["no_contact"] = sum(nothing_to_identify(r) is not None for r in records)
     doc["model"] = describe_model(model)
     return doc
-
-
-def doubt_summary(model, records, y_true, y_pred, proba) -> dict[str, Any]:
-    """``{"margin", "cross_check", "flagged", "right_flagged", "wrong_flagged"}``: the model's
-    threshold, its second opinion, and the share of all, right and wrong answers flagged
-    ambiguous (docs/json.md)."""
-    from ..learn.doubt import CROSS_CHECK, doubts, flag_shares, model_cross_check
-
-    found = doubts(model, records, y_pred, proba)
-    flags = np.array([d["ambiguous"] is not None for d in found], dtype=bool)
-    correct = np.asarray(y_pred).astype(str) == np.asarray(y_true).astype(str)
-    cross = CROSS_CHECK if model_cross_check(model.info) else None
-    return {"margin": model.doubt_margin, "cross_check": cross, **flag_shares(flags, correct)}
 
 
 def describe_model(model) -> dict[str, Any]:
@@ -273,7 +262,7 @@ def compare(
 ) -> list[dict[str, Any]]:
     """Accuracy and cost of every descriptor x classifier pair on the same train/test data.
 
-    ``doubt``: each row also gets ``ambiguous`` (:func:`pair_doubt`: the pair's threshold,
+    ``doubt``: each row also gets ``ambiguous`` (``learn.doubt.pair_doubt``: the pair's threshold,
     calibrated on held-out folds of the training set, and the shares of test answers flagged).
 
     Without ``test_records`` the training records are split (seeded, stratified by shape).
@@ -301,7 +290,7 @@ def compare(
     # resolve every name up front so a typo fails before minutes of fitting
     descs = [get_descriptor(d) for d in descriptors]
     _check_classifiers(classifiers)
-    from ..learn.doubt import cross_check_applies, cross_check_names
+    from ..learn.doubt import cross_check_applies, cross_check_names, pair_doubt
 
     seconds: dict[str, np.ndarray] = {}  # the shape fit's answers on the test set, read once
     rows = []
@@ -336,33 +325,6 @@ def compare(
             if on_pair is not None:
                 on_pair(row)
     return rows
-
-
-def pair_doubt(
-    classifier: str, estimator, train: tuple, x_test, y_test, seconds=None
-) -> dict[str, Any]:
-    """A fitted pair's doubt on a test set: its threshold (calibrated on held-out folds of the
-    training set ``(features, labels, records)``, ``learn/doubt.py``), the cross-check's test
-    answers ``seconds`` where it applies, and the share of all, right and wrong test answers
-    flagged; ``reason`` instead of a threshold where it could not be calibrated."""
-    from ..learn.doubt import calibrate_margin, cross_flags, flag_shares, flagged, margins
-
-    x_train, y_train, records = train
-    calibration = calibrate_margin(
-        lambda: _estimator(classifier, None), x_train, y_train,
-        records=records if seconds is not None else None, classifier=classifier,
-    )  # fmt: skip
-    names = np.asarray(estimator.predict(x_test)).astype(str)
-    classes = [str(c) for c in estimator.classes_]
-    proba = np.asarray(estimator.predict_proba(x_test), dtype=float)
-    m = margins(proba, np.array([classes.index(n) for n in names]))[0]
-    flags = flagged(m, calibration["margin"])
-    if calibration["cross_check"] is not None and seconds is not None:
-        flags = flags | cross_flags(names, seconds)
-    doc = {"margin": calibration["margin"], "cross_check": calibration["cross_check"]}
-    if calibration["margin"] is None:
-        doc["reason"] = calibration.get("reason")
-    return {**doc, **flag_shares(flags, names == np.asarray(y_test))}
 
 
 def _incompatible(descriptor: str, classifier: str) -> str | None:

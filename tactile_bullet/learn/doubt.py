@@ -261,3 +261,41 @@ def doubts(model, records: Sequence, names: Sequence[str], proba: np.ndarray | N
         answer_doubt(classes, str(n), None if proba is None else proba[i], threshold, others[i])
         for i, n in enumerate(names)
     ]
+
+
+def evaluation_doubt(model, records: Sequence, y_true, y_pred, proba) -> dict[str, Any]:
+    """``evaluate``'s ``ambiguous`` block: ``{"margin", "cross_check", "flagged",
+    "right_flagged", "wrong_flagged"}``, the model's threshold, its second opinion, and the
+    share of all, right and wrong answers flagged (docs/json.md)."""
+    found = doubts(model, records, y_pred, proba)
+    flags = np.array([d["ambiguous"] is not None for d in found], dtype=bool)
+    correct = np.asarray(y_pred).astype(str) == np.asarray(y_true).astype(str)
+    cross = CROSS_CHECK if model_cross_check(model.info) else None
+    return {"margin": model.doubt_margin, "cross_check": cross, **flag_shares(flags, correct)}
+
+
+def pair_doubt(
+    classifier: str, estimator, train: tuple, x_test, y_test, seconds=None
+) -> dict[str, Any]:
+    """A fitted pair's doubt on a test set (``compare``): its threshold (calibrated on held-out
+    folds of the training set ``(features, labels, records)``), the cross-check's test answers
+    ``seconds`` where it applies, and the share of all, right and wrong test answers flagged;
+    ``reason`` instead of a threshold where it could not be calibrated."""
+    from ..plugins import get_classifier
+
+    x_train, y_train, records = train
+    calibration = calibrate_margin(
+        lambda: get_classifier(classifier), x_train, y_train,
+        records=records if seconds is not None else None, classifier=classifier,
+    )  # fmt: skip
+    names = np.asarray(estimator.predict(x_test)).astype(str)
+    classes = [str(c) for c in estimator.classes_]
+    proba = np.asarray(estimator.predict_proba(x_test), dtype=float)
+    m = margins(proba, np.array([classes.index(n) for n in names]))[0]
+    flags = flagged(m, calibration["margin"])
+    if calibration["cross_check"] is not None and seconds is not None:
+        flags = flags | cross_flags(names, seconds)
+    doc = {"margin": calibration["margin"], "cross_check": calibration["cross_check"]}
+    if calibration["margin"] is None:
+        doc["reason"] = calibration.get("reason")
+    return {**doc, **flag_shares(flags, names == np.asarray(y_test).astype(str))}

@@ -117,6 +117,12 @@ def test_the_second_opinion_takes_its_share_of_the_false_alarm_budget_first(
     monkeypatch.setattr(doubt, "cross_check_names", lambda recs, classes: truth[: len(recs)])
     svm = workflow.train(train, "signature", "svm")
     assert svm.info["doubt"]["cross_check"] == "shape-fit"
+    names, proba = svm.predict_with_proba(train[:2])
+    asked = doubt.doubts(svm, train[:2], names, proba)
+    assert [d["cross_check"] for d in asked] == list(truth[:2])
+    # a caller in a hurry (the streaming Identifier's cross_check=False) gets the margin only
+    quick = doubt.doubts(svm, train[:2], names, proba, cross_check=False)
+    assert all(d["cross_check"] is None for d in quick)
     # a second opinion that never contradicts a right answer leaves the margin its 5%
     assert svm.info["doubt"]["right_flagged"] <= doubt.FALSE_ALARM
     # one that contradicts a third of the right answers leaves the margin nothing: it flags

@@ -249,13 +249,16 @@ def model_cross_check(info: dict) -> bool:
     return isinstance(doubt, dict) and doubt.get("cross_check") == CROSS_CHECK
 
 
-def doubts(model, records: Sequence, names: Sequence[str], proba: np.ndarray | None) -> list:
+def doubts(
+    model, records: Sequence, names: Sequence[str], proba: np.ndarray | None,
+    cross_check: bool = True,
+) -> list:  # fmt: skip
     """:func:`answer_doubt` of each of a model's answers, with the cross-check the model's
-    calibration asked for."""
+    calibration asked for (unless ``cross_check`` is False: the margin only, ~60 ms sooner)."""
     classes = [str(c) for c in model.classes]
     threshold = model.doubt_margin
     others: Sequence[str | None] = [None] * len(names)
-    if model_cross_check(model.info) and len(records):
+    if cross_check and model_cross_check(model.info) and len(records):
         others = list(cross_check_names(records, classes))
     return [
         answer_doubt(classes, str(n), None if proba is None else proba[i], threshold, others[i])

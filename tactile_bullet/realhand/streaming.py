@@ -45,9 +45,15 @@ TRIM_AT = 4096
 class Identifier:
     """Streaming shape identification with a trained model (see the module docstring)."""
 
-    def __init__(self, model, calibration: Calibration | None = None, gap_s: float = GAP_S) -> None:
+    def __init__(
+        self, model, calibration: Calibration | None = None, gap_s: float = GAP_S,
+        cross_check: bool = True,
+    ) -> None:  # fmt: skip
         self.model = model
         self.calibration = calibration
+        self.cross_check = cross_check
+        """Whether the answer at a grasp's end asks the shape fit's second opinion where the
+        model's calibration wants it (``learn/doubt.py``; ~60 ms; False: the margin only)."""
         self._segmenter = GraspSegmenter(gap_s)
         self._maps: dict[tuple[str, ...], JointMap | None] = {}
         self._map: JointMap | None = None
@@ -61,9 +67,10 @@ class Identifier:
         model: str | os.PathLike | Any,
         calibration: str | os.PathLike | Calibration | None = None,
         gap_s: float = GAP_S,
+        cross_check: bool = True,
     ) -> Identifier:
         """An identifier for a saved model file (or a loaded Model); ``calibration`` a TOML
-        path or a :class:`Calibration`."""
+        path or a :class:`Calibration`; ``cross_check`` as in the constructor."""
         from ..learn.models import load_model
         from .calibration import load_calibration
 
@@ -71,7 +78,7 @@ class Identifier:
             model = load_model(model)
         if isinstance(calibration, str | os.PathLike):
             calibration = load_calibration(calibration)
-        return cls(model, calibration, gap_s)
+        return cls(model, calibration, gap_s, cross_check)
 
     def reset(self) -> None:
         """Forget every sample and grasp (a new session)."""
@@ -218,7 +225,7 @@ class Identifier:
                 from ..learn.doubt import doubts
 
                 proba = np.array([[probabilities[c] for c in self._classes]])
-                (doubt,) = doubts(self.model, [record], [answer], proba)
+                (doubt,) = doubts(self.model, [record], [answer], proba, self.cross_check)
             doc = {
                 "shape": answer if over else None,
                 "probabilities": probabilities,

@@ -38,6 +38,7 @@ from ..hand import (
 )
 from ..objects.shapes import Shape
 from ..records import ControllerSettings, GraspRecord, Pose
+from .coupling import Tendon, advance
 from .scene import Scene
 
 J3, J0 = 0, 1
@@ -61,7 +62,8 @@ def resolve_shape(name: str) -> Shape:
 class _Finger:
     """Algorithm 1's state for one long finger."""
 
-    __slots__ = ("name", "j3", "j2", "j1", "stage", "t3", "t2", "t1", "j2_free", "links")
+    __slots__ = ("name", "j3", "j2", "j1", "stage", "t3", "t2", "t1", "j2_free", "j1_free",
+                 "links")  # fmt: skip
 
     def __init__(self, name: str, scene: Scene) -> None:
         up = name.upper()
@@ -69,7 +71,7 @@ class _Finger:
         self.j3, self.j2, self.j1 = (JOINT_NAMES.index(f"{up}J{k}") for k in (3, 2, 1))
         self.stage = J3
         self.t3 = self.t2 = self.t1 = 0.0
-        self.j2_free = True
+        self.j2_free = self.j1_free = True
         ids = scene.link_index
         self.links = (
             ids[f"{name}proximal"],
@@ -102,11 +104,14 @@ def simulate_grasp(
     scene = Scene(
         spec, values, pose, timestep=ctl.timestep, gui=gui, visual=scene_hook is not None,
         friction=ctl.friction, phalanx_scale=ctl.phalanx_scale,
+        contact_stiffness=ctl.contact_stiffness,
     )  # fmt: skip
     try:
         record = _run(scene, spec, values, pose, ctl, int(seed), scene_hook)
     finally:
         scene.close()
+    if ctl.joint_offsets:
+        record = offset_readings(record, ctl.joint_offsets)
     identity = getattr(spec, "identity", None)  # a mesh file's (meshes.MeshShape)
     return dataclasses.replace(record, mesh=identity) if identity else record
 
@@ -315,31 +320,21 @@ class _GraspRun:
         self.tendon_tick(f, e2, e1, states, links)
 
     def tendon_tick(self, f: _Finger, e2: float, e1: float, states, links) -> None:
-        """Stage J0: the tendon's travel goes to J2 while it is free, then to J1; the finger is
-        done when J1 is blocked (or at its limit once J2 is)."""
-        thres, delta, upper, targets = (
-            self.ctl.thres_t,
-            self.ctl.delta,
-            self.scene.upper,
-            self.targets,
-        )
+        """Stage J0: the tendon's travel goes to J2 and J1 by the controller's coupling rule
+        (``sim/coupling.py``; by default J2 while it is free, then J1)."""
         if self.torque_mode:
-            j2_blocked, j1_blocked = e2 > thres, e1 > thres
+            blocked = (e2 > self.ctl.thres_t, e1 > self.ctl.thres_t)
         else:
-            j2_blocked, j1_blocked = f.links[1] in links, bool(f.links[2] & links)
-        if f.j2_free and (j2_blocked or f.t2 >= upper[f.j2]):
-            f.j2_free = False
-            f.t2 = targets[f.j2] = states[1][0]
-        if j1_blocked or (not f.j2_free and f.t1 >= upper[f.j1]):
+            blocked = (f.links[1] in links, bool(f.links[2] & links))
+        upper = self.scene.upper
+        tendon = advance(
+            self.ctl.coupling, Tendon(f.t2, f.t1, f.j2_free, f.j1_free), blocked,
+            (states[1][0], states[2][0]), self.ctl.delta, (upper[f.j2], upper[f.j1]),
+        )  # fmt: skip
+        f.t2, f.t1, f.j2_free, f.j1_free = tendon.t2, tendon.t1, tendon.free2, tendon.free1
+        self.targets[f.j2], self.targets[f.j1] = f.t2, f.t1
+        if tendon.done:
             f.stage = DONE
-            f.t1 = targets[f.j1] = states[2][0]
-            return
-        if f.j2_free:
-            f.t2 = min(f.t2 + delta, upper[f.j2])
-            targets[f.j2] = f.t2
-        else:
-            f.t1 = min(f.t1 + delta, upper[f.j1])
-            targets[f.j1] = f.t1
 
     def stop_finger(self, f: _Finger, states) -> None:
         """Early stop: the finger holds the angles it has now and is done."""
@@ -458,6 +453,20 @@ def sweep_clear_fraction(
     for j in joint_ids:
         c.resetJointState(hand, j, 0.0, 0.0)
     return clear / SWEEP_POSES
+
+
+def offset_readings(record: GraspRecord, offsets) -> GraspRecord:
+    """The record as sensors with calibration ``offsets`` (rad, ``records.OFFSET_JOINTS``
+    order) report it: each offset added to its joint's sampled and final angles. The controller
+    ran on the true angles; only what the hand reports is shifted."""
+    from ..records import OFFSET_JOINTS
+
+    cols = [record.joint_index(name) for name in OFFSET_JOINTS]
+    shift = np.zeros(len(record.joint_names))
+    shift[cols] = offsets
+    return dataclasses.replace(
+        record, angles=record.angles + shift, final_angles=record.final_angles + shift
+    )
 
 
 def timed_grasp(*args, **kwargs) -> tuple[GraspRecord, float]:

@@ -11,8 +11,10 @@ scores each on every level of every protocol, and writes into ``out``:
 
 A row is ``{"protocol", "level", "descriptor", "classifier", "training", "accuracy",
 "headline", "test_records"}``: ``training`` is ``clean`` (the simulated grasps as they are) or
-``noise-aware`` (each also presented perturbed, ``robust.augment``); exactly one level per
-protocol is the headline.
+``noise-aware`` (each also presented perturbed, ``robust.augment``) or ``randomized`` (the
+protocol's training set simulated with the hand and physics drawn per grasp,
+``protocols.randomized_name``; opt-in, it simulates the training sets once more); exactly one
+level per protocol is the headline.
 """
 
 from __future__ import annotations
@@ -32,7 +34,8 @@ from ..learn.perturb import perturb_all
 from ..records import GraspRecord
 from . import protocols as P
 
-TRAININGS: tuple[str, ...] = ("clean", "noise-aware")
+TRAININGS: tuple[str, ...] = ("clean", "noise-aware", "randomized")
+DEFAULT_TRAININGS: tuple[str, ...] = ("clean", "noise-aware")
 QUICK_DESCRIPTORS = ("signature", "raw-joints", "contact-normals", "robust-signature",
                      "robust-joints")  # fmt: skip
 QUICK_CLASSIFIERS = ("svm", "knn")
@@ -168,7 +171,7 @@ def run_benchmark(
     protocols: Sequence[str] | str | None = None,
     descriptors: Sequence[str] | None = None,
     classifiers: Sequence[str] | None = None,
-    trainings: Sequence[str] = TRAININGS,
+    trainings: Sequence[str] = DEFAULT_TRAININGS,
     *,
     quick: bool | str = False,
     workers: int = 2,
@@ -202,7 +205,7 @@ def run_benchmark(
     }  # fmt: skip
     prepare_out(out, config)
     table = P.protocols(scale)
-    specs = P.needed_sets(names, scale)
+    specs = P.needed_sets(names, scale, trainings)
     simulate_sets(specs, cache_dir, int(workers), show, say)
 
     sets: dict[str, list[GraspRecord]] = {}
@@ -218,6 +221,8 @@ def run_benchmark(
         key = (train_set, training, desc)
         if key not in features:
             records = sets[train_set]
+            if training == "randomized":
+                records = sets[P.randomized_name(train_set)]
             if training == "noise-aware":
                 records = augment(records, seed=seed)
             features[key] = np.asarray(descs[desc].transform(records), float)

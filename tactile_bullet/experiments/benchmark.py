@@ -35,6 +35,7 @@ from ..records import GraspRecord
 from . import protocols as P
 
 TRAININGS: tuple[str, ...] = ("clean", "noise-aware", "randomized")
+"""As ``learn/trainings.py``'s (which ``train --training`` uses)."""
 DEFAULT_TRAININGS: tuple[str, ...] = ("clean", "noise-aware")
 QUICK_DESCRIPTORS = ("signature", "raw-joints", "contact-normals", "robust-signature",
                      "robust-joints")  # fmt: skip

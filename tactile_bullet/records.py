@@ -167,6 +167,8 @@ def _check_variation(ctl: ControllerSettings) -> None:
             f"controller coupling must be one of {', '.join(COUPLINGS)}, got {ctl.coupling!r}"
         )
     offsets = ctl.joint_offsets
+    if isinstance(offsets, np.ndarray) and offsets.ndim == 1:
+        offsets = offsets.tolist()
     if isinstance(offsets, str) or not isinstance(offsets, tuple | list):
         raise UsageError(f"controller joint_offsets must be a list of numbers, got {offsets!r}")
     if offsets and len(offsets) != len(OFFSET_JOINTS):

@@ -413,11 +413,11 @@ def _randomized() -> Sweep:
 
 PRESETS = {
     "thesis": _thesis,
-    "randomized": _randomized,
     "modified": _modified,
     "sequential": _sequential,
     "smoke": _smoke,
     "temporal": _temporal,
+    "randomized": _randomized,
 }
 
 

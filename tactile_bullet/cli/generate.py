@@ -27,7 +27,8 @@ def add_parser(sub) -> None:
     )
     source = parser.add_mutually_exclusive_group(required=True)
     source.add_argument(
-        "--preset", help="thesis, modified, sequential, temporal or smoke (a few grasps, seconds)"
+        "--preset", help="thesis, modified, sequential, temporal, randomized (the thesis "
+        "sweep with the hand and physics drawn per grasp) or smoke (a few grasps, seconds)"
     )
     source.add_argument("--config", metavar="FILE.toml", help="a sweep declared in TOML")
     parser.add_argument("--out", required=True, help="dataset directory (new or resumed)")

@@ -9,8 +9,10 @@ every training set) and its ``coupling-equal-torque`` / ``coupling-distal-first`
    under another rule, over the quantity's spread across the test set (std): under ~0.3 a
    quantity survives the change, near 1 or above it is rewritten by it.
 2. Accuracy: each descriptor + classifier trained on the clean and on the randomised training
-   set, tested on the held-out grasps as simulated, as a J0-only hand would be imported
-   (``learn/coupled.j0_only``), and under each other coupling rule.
+   set (and on the randomised set with its drawn joint reading offsets taken off again,
+   ``randomized-no-offsets``: what the offsets alone cost), tested on the held-out grasps as
+   simulated, as a J0-only hand would be imported (``learn/coupled.j0_only``), and under each
+   other coupling rule.
 
     python tools/bench_coupling.py --data DIR/data [--scale quick] [--descriptors a,b]
 """
@@ -65,6 +67,19 @@ def invariance(base, other) -> dict[str, float]:
     return out
 
 
+def without_offsets(r):
+    """The record with the reading offsets its grasp drew taken off (the simulator knows them)."""
+    import dataclasses
+
+    from tactile_bullet.records import OFFSET_JOINTS
+
+    if not r.controller.joint_offsets:
+        return r
+    shift = np.zeros(len(r.joint_names))
+    shift[[r.joint_index(n) for n in OFFSET_JOINTS]] = r.controller.joint_offsets
+    return dataclasses.replace(r, angles=r.angles - shift, final_angles=r.final_angles - shift)
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--data", required=True, help="the benchmark's cache folder")
@@ -93,15 +108,16 @@ def main() -> None:
     for name in table[P.COUPLING_SHIFTS[0]]:
         print(f"  {name:28s}" + "".join(f"{table[r][name]:14.2f}" for r in rules))
 
-    trains = {"clean": read(f"{tag}demo-train"),
-              "randomized": read(P.randomized_name(f"{tag}demo-train"))}  # fmt: skip
+    randomized = read(P.randomized_name(f"{tag}demo-train"))
+    trains = {"clean": read(f"{tag}demo-train"), "randomized": randomized,
+              "randomized-no-offsets": [without_offsets(r) for r in randomized]}  # fmt: skip
     tests = {"held-out": test, "held-out J0-only": [j0_only(r) for r in test]}
     for rule, recs in rules.items():
         tests[rule] = recs
     tests["distal-first J0-only"] = [j0_only(r) for r in rules["distal-first"]]
     print(f"\naccuracy (%), {args.classifier}; test grasps: "
           + ", ".join(f"{k} {len(v)}" for k, v in tests.items()))  # fmt: skip
-    print(f"  {'descriptor':22s}{'training':12s}" + "".join(f"{k:>22s}" for k in tests))
+    print(f"  {'descriptor':22s}{'training':23s}" + "".join(f"{k:>22s}" for k in tests))
     for name in args.descriptors.split(","):
         desc = get_descriptor(name)
         for training, records in trains.items():
@@ -111,7 +127,7 @@ def main() -> None:
             for recs in tests.values():
                 pred = np.asarray(model.predict(desc.transform(recs))).astype(str)
                 cells.append(100.0 * float(np.mean(pred == labels_of(recs))))
-            print(f"  {name:22s}{training:12s}" + "".join(f"{c:22.1f}" for c in cells))
+            print(f"  {name:22s}{training:23s}" + "".join(f"{c:22.1f}" for c in cells))
 
 
 if __name__ == "__main__":

@@ -206,6 +206,7 @@ def test_control_rate_keeps_the_closing_speed():
         ({"phalanx_scale": [1.5]}, "phalanx_scale must be from 0.8"),
         ({"joint_offset_deg": 45}, "joint_offset_deg"),
         ({"control_rate": [0]}, "control_rate"),
+        ({"control_rate": [240, 5], "closing_speed": {"min": 1, "max": 8}}, "delta"),
         ("fast", "must be a table"),
     ],
 )

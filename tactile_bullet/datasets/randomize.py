@@ -29,6 +29,7 @@ several engines are installed (issue 19); see :func:`draw`.
 
 from __future__ import annotations
 
+import itertools
 import math
 from collections.abc import Mapping
 from dataclasses import dataclass, fields, replace
@@ -115,13 +116,15 @@ class Randomization:
         self, base: ControllerSettings, rng: np.random.Generator, check: bool = False
     ) -> ControllerSettings:
         """One grasp's settings: ``base`` with every drawn knob replaced. Draws happen in a
-        fixed order, one per key whether or not others are set. With ``check`` every bound of
-        each range is tried, so a table whose extremes make invalid settings fails on reading.
+        fixed order, one per key whether or not others are set. With ``check`` every
+        combination of the keys' extremes is tried, so a table that can draw invalid settings
+        (a fast closing speed at a slow control rate: too large a step) fails on reading.
         """
         if check:
-            for pick in (min, max):
-                self._apply(base, {k: _extreme(getattr(self, k), pick) for k in NUMERIC_KEYS},
-                            0.0, None, checking=True)  # fmt: skip
+            for picks in itertools.product((min, max), repeat=len(NUMERIC_KEYS)):
+                ends = {k: _extreme(getattr(self, k), pick)
+                        for k, pick in zip(NUMERIC_KEYS, picks, strict=True)}  # fmt: skip
+                self._apply(base, ends, 0.0, None, checking=True)
             return base
         values = {k: _draw(getattr(self, k), rng) for k in NUMERIC_KEYS}
         offsets = rng.uniform(-1.0, 1.0, len(OFFSET_JOINTS))

@@ -128,6 +128,14 @@ def test_distal_first_curls_the_distal_joint_and_still_grasps(rigid):
     assert np.all(rigid.fci_angles()[1] > angles[1])  # J2 led today, so it closed further
 
 
+def test_grasp_cli_takes_the_coupling(tmp_path, capsys):
+    out = tmp_path / "g.npz"
+    argv = ["grasp", "--shape", "sphere", "--coupling", "equal-torque", "--out", str(out)]
+    assert main(argv) == 0
+    assert load_record(out).controller.coupling == "equal-torque"
+    assert main(["grasp", "--shape", "sphere", "--coupling", "sideways"]) == 2
+
+
 def test_joint_offsets_shift_the_readings_not_the_grasp(rigid):
     offsets = np.linspace(-0.04, 0.04, 12)
     record = simulate_grasp(*CYLINDER, Pose(), ControllerSettings(joint_offsets=offsets))

@@ -55,6 +55,10 @@ def add_parser(sub) -> None:
         help="stop closing a finger once the dynamic detector finds it out of contact "
         "(fewer steps when a finger misses the object)",
     )  # fmt: skip
+    parser.add_argument(
+        "--coupling", choices=("j2-first", "equal-torque", "distal-first"), default="j2-first",
+        help="how the J1/J2 tendon shares its travel (docs/transfer.md; default j2-first)",
+    )  # fmt: skip
     parser.add_argument("--seed", type=seed_number, default=0)
     parser.add_argument("--out", help="write the GraspRecord to this .npz file")
     parser.add_argument("--snapshot", help="render the grasp to this PNG (CPU renderer)")
@@ -68,7 +72,8 @@ def add_parser(sub) -> None:
 def _controller(args):
     from ..records import ControllerSettings
 
-    overrides = {"mode": args.mode, "preshape": args.preshape, "early_stop": args.early_stop}
+    overrides = {"mode": args.mode, "preshape": args.preshape, "early_stop": args.early_stop,
+                 "coupling": args.coupling}  # fmt: skip
     for key, value in (("delta", args.delta), ("thres_t", args.thres), ("max_time", args.max_time)):
         if value is not None:
             overrides[key] = value

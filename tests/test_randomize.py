@@ -195,6 +195,14 @@ def test_randomize_table_round_trips_and_keys_left_out_stay_put():
     )
 
 
+def test_randomize_is_checked_against_the_sweeps_controller():
+    table = {"control_rate": [10]}  # keeps the controller's closing speed at 10 ticks/s
+    Sweep.from_dict({"randomize": table, "shapes": [{"name": "sphere"}]})  # 1.44 rad/s: 0.144
+    with pytest.raises(UsageError, match="delta"):  # 12 rad/s: 1.2 rad per tick
+        Sweep.from_dict({"randomize": table, "controller": {"delta": 0.05},
+                         "shapes": [{"name": "sphere"}]})  # fmt: skip
+
+
 def test_control_rate_keeps_the_closing_speed():
     (task,) = Sweep.from_dict({"mode": "random", "samples": 1, "randomize": {
         "control_rate": [80]}, "shapes": [{"name": "sphere"}]}).tasks()  # fmt: skip

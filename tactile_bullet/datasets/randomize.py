@@ -65,8 +65,11 @@ class Randomization:
     coupling: tuple[str, ...] | None = None
 
     @classmethod
-    def from_dict(cls, data: Any, where: str = "[randomize]") -> Randomization:
-        """Validate a ``[randomize]`` table; every problem is a UsageError naming the key."""
+    def from_dict(
+        cls, data: Any, where: str = "[randomize]", base: ControllerSettings | None = None
+    ) -> Randomization:
+        """Validate a ``[randomize]`` table against the sweep's ``[controller]`` settings
+        ``base``; every problem is a UsageError naming the key."""
         if not isinstance(data, Mapping):
             raise UsageError(f"{where} must be a table")
         if "engine" in data:
@@ -100,7 +103,7 @@ class Randomization:
                 )
             out["coupling"] = tuple(names)
         result = cls(**out)
-        result.draw(ControllerSettings(), np.random.default_rng(0), check=True)
+        result.draw(base or ControllerSettings(), np.random.default_rng(0), check=True)
         return result
 
     def to_dict(self) -> dict[str, Any]:

@@ -153,7 +153,9 @@ class Sweep:
         if "randomize" in data:
             from .randomize import Randomization
 
-            randomize = Randomization.from_dict(data["randomize"], f"{source}: [randomize]")
+            randomize = Randomization.from_dict(
+                data["randomize"], f"{source}: [randomize]", controller
+            )
         shapes_data = data.get("shapes", [])
         objects_data = data.get("objects", [])
         if not isinstance(shapes_data, list) or not isinstance(objects_data, list):

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import contextlib
 import os
+import stat
 from collections.abc import Iterable, Iterator
 from pathlib import Path
 from typing import Any
@@ -31,6 +32,7 @@ def atomic_path(
     becomes a UsageError naming ``what`` and the path.
     """
     path = Path(path)
+    refuse_special(path, what)
     tmp = path.with_name(f".{path.stem}.{os.getpid()}.tmp{path.suffix}")
     try:
         yield tmp
@@ -44,6 +46,34 @@ def atomic_path(
         raise UsageError(f"cannot write {what} {path}: {exc.strerror or exc}") from None
     finally:
         tmp.unlink(missing_ok=True)
+
+
+_SPECIAL = (
+    (stat.S_ISLNK, "a symbolic link"),
+    (stat.S_ISCHR, "a character device"),
+    (stat.S_ISBLK, "a block device"),
+    (stat.S_ISFIFO, "a FIFO"),
+    (stat.S_ISSOCK, "a socket"),
+)
+
+
+def refuse_special(path: str | os.PathLike, what: str = "output") -> None:
+    """Refuse an existing ``path`` that is not a regular file or a folder: renaming a new file
+    over a device, FIFO, socket or symbolic link would replace the node itself (``/dev/null``
+    run as root becomes a regular file; a link stops pointing where the user keeps the data),
+    which ``--force`` never means."""
+    try:
+        mode = os.lstat(path).st_mode
+    except FileNotFoundError:
+        return
+    except OSError as exc:
+        raise UsageError(f"cannot inspect {what} {path}: {exc.strerror or exc}") from None
+    for test, kind in _SPECIAL:
+        if test(mode):
+            raise UsageError(
+                f"{what} {path} is {kind}, not a regular file: not replacing it "
+                "(name a regular file or a new path)"
+            )
 
 
 def write_bytes_atomic(
@@ -73,7 +103,11 @@ def existing_outputs(
     """Refuse (unless ``force``) a folder that already holds any of the files a command would
     write there: an earlier report or figure is kept unless the user asks otherwise."""
     folder = Path(folder)
-    if force or not folder.is_dir():
+    if not folder.is_dir():
+        return
+    for name in names:
+        refuse_special(folder / name, what)
+    if force:
         return
     found = sorted(n for n in names if (folder / n).exists())
     if found:

@@ -267,7 +267,7 @@ def write_dataset(
 
     Built in a temporary folder beside ``out`` and renamed into place, so a failure leaves
     nothing; an existing ``out`` is refused unless ``force`` (and even then only an empty
-    folder or a dataset is replaced, never other files)."""
+    folder or a dataset holding nothing but this project's files is replaced)."""
     import hashlib
     import os
     import shutil
@@ -334,8 +334,10 @@ def write_dataset(
 def check_dataset_out(out: Path, force: bool) -> None:
     """Refuse an ``out`` that is a file, a folder of other files, or a dataset (unless
     ``force``): checked before recordings are read, and again before writing."""
-    from ..datasets.shards import MANIFEST
+    from ..datasets.shards import MANIFEST, foreign_in_dataset
+    from ..files import refuse_special
 
+    refuse_special(out, "--out")
     if not out.exists():
         return
     if not out.is_dir():
@@ -344,5 +346,11 @@ def check_dataset_out(out: Path, force: bool) -> None:
         return
     if not (out / MANIFEST).is_file():
         raise UsageError(f"--out {out} exists and holds files that are not a dataset")
+    foreign = foreign_in_dataset(out)
+    if foreign:
+        raise UsageError(
+            f"--out {out} holds {foreign}, which this project did not write: not replacing "
+            "the folder (move it away or choose another folder)"
+        )
     if not force:
         raise UsageError(f"--out {out} already holds a dataset; use --force to replace it")

@@ -375,3 +375,36 @@ def test_underscored_numbers_and_nanosecond_times_are_refused(tmp_path, capsys, 
 
     path = _table(tmp_path, files, nanoseconds, "ns.csv")
     assert "nanoseconds" in run_error(capsys, ["import", str(path), "--out", str(tmp_path / "o")])
+
+
+def test_the_recorded_ranges_are_the_urdfs_limits():
+    """hand.JOINT_LIMITS_DEG (what recordings are checked against) is the URDF's."""
+    import math
+    import xml.etree.ElementTree as ET
+
+    from tactile_bullet.hand import JOINT_LIMITS_DEG, urdf_path
+
+    root = ET.parse(urdf_path()).getroot()
+    limits = {j.get("name"): j.find("limit") for j in root.iter("joint")}
+    for name in JOINT_NAMES:
+        lim = limits[name]
+        got = (math.degrees(float(lim.get("lower"))), math.degrees(float(lim.get("upper"))))
+        assert got == pytest.approx(JOINT_LIMITS_DEG[name], abs=1e-3), name
+
+
+# --- item 10: a grasp that touched nothing names no shape ---------------------------------------
+
+
+def test_shape_fit_names_no_shape_for_a_grasp_that_touched_nothing(synthetic_split):
+    import dataclasses
+
+    from tactile_bullet.perception.contact import nothing_to_identify
+    from tactile_bullet.perception.shape_fit import shape_fit_summary
+
+    touched = synthetic_split[1][0]
+    assert shape_fit_summary(touched)["shape"]  # the same angles with contact: a shape
+    for fingers in ((), ("ff",)):
+        air = dataclasses.replace(touched, fingers_in_contact=fingers)
+        assert nothing_to_identify(air) and shape_fit_summary(air) is None
+    recorded = dataclasses.replace(touched, fingers_in_contact=(), source="recorded")
+    assert shape_fit_summary(recorded)["shape"]  # no contact sensing: not judged so

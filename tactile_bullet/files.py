@@ -134,6 +134,16 @@ def probe_folder(folder: str | os.PathLike, what: str) -> Path:
     return folder
 
 
+def load_failure(exc: BaseException) -> str:
+    """The first line of why numpy (or zipfile) could not read an ``.npz``, for a one-line
+    error. Where numpy took the file for a pickle it advises loading it "unsafely using
+    allow_pickle": this project never unpickles, so that advice is replaced by what is true."""
+    text = str(exc).strip()
+    if "pickle" in text.lower():
+        return "not an .npz archive; pickled data is never loaded"
+    return text.splitlines()[0] if text else type(exc).__name__
+
+
 def json_value(value: Any) -> Any:
     """``json.dumps(default=...)`` for numpy scalars and arrays, tuples and paths."""
     if isinstance(value, np.generic):

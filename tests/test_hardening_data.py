@@ -408,3 +408,19 @@ def test_shape_fit_names_no_shape_for_a_grasp_that_touched_nothing(synthetic_spl
         assert nothing_to_identify(air) and shape_fit_summary(air) is None
     recorded = dataclasses.replace(touched, fingers_in_contact=(), source="recorded")
     assert shape_fit_summary(recorded)["shape"]  # no contact sensing: not judged so
+
+
+# --- item 23: never advise unpickling -----------------------------------------------------------
+
+
+def test_a_non_model_file_is_never_answered_with_unpickling_advice(tmp_path, capsys, files):
+    toml = tmp_path / "held-out.toml"
+    toml.write_text("[sweep]\nshapes = ['cone']\n")
+    err = run_error(capsys, ["evaluate", "--model", str(toml), "--data", files["data"]])
+    assert "not a tactile-bullet model" in err and "pickle" in err
+    assert "allow_pickle" not in err and "unsafe" not in err
+    from tactile_bullet.records import load_record
+
+    with pytest.raises(UsageError) as info:
+        load_record(toml)
+    assert "allow_pickle" not in str(info.value)

@@ -76,6 +76,24 @@ def refuse_special(path: str | os.PathLike, what: str = "output") -> None:
             )
 
 
+def not_a_file(path: str | os.PathLike) -> str | None:
+    """Why ``path`` cannot be read as a file ("does not exist", "is a folder", "is a FIFO,
+    not a regular file", ...), or None for a regular file (links followed): an input that is
+    there but of the wrong kind is never reported as missing."""
+    try:
+        mode = os.stat(path).st_mode
+    except FileNotFoundError:
+        return "does not exist"
+    except OSError as exc:
+        return f"cannot be read ({exc.strerror or exc})"
+    if stat.S_ISREG(mode):
+        return None
+    if stat.S_ISDIR(mode):
+        return "is a folder, not a file"
+    kind = next((k for test, k in _SPECIAL if test(mode)), "a special file")
+    return f"is {kind}, not a regular file"
+
+
 def write_bytes_atomic(
     path: str | os.PathLike, data: bytes, what: str = "file", durable: bool = False
 ) -> Path:

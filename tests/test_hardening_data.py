@@ -424,3 +424,21 @@ def test_a_non_model_file_is_never_answered_with_unpickling_advice(tmp_path, cap
     with pytest.raises(UsageError) as info:
         load_record(toml)
     assert "allow_pickle" not in str(info.value)
+
+
+# --- item 25: messages that say what is wrong -------------------------------------------------
+
+
+@pytest.mark.parametrize("kind, words", [("fifo", "is a FIFO"), ("folder", "is a folder")])
+def test_a_recording_of_the_wrong_kind_is_not_called_missing(tmp_path, capsys, kind, words):
+    path = tmp_path / "rec.csv"
+    os.mkfifo(path) if kind == "fifo" else path.mkdir()
+    err = run_error(capsys, ["import", str(path), "--out", str(tmp_path / "o")])
+    assert words in err and "does not exist" not in err
+
+
+def test_a_lookalike_unicode_joint_name_is_shown_as_such(tmp_path, capsys, files):
+    cyrillic = "rh_FF\u04083"  # a Cyrillic Je where the J belongs
+    path = _table(tmp_path, files, lambda text: text.replace("rh_FFJ3", cyrillic))
+    err = run_error(capsys, ["import", str(path), "--out", str(tmp_path / "o")])
+    assert "\\u0408" in err and "not ASCII" in err

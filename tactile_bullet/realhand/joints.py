@@ -41,7 +41,8 @@ class JointMap:
         parts = [split_name(n) for n in self.names]
         unknown = [n for n, p in zip(self.names, parts, strict=True) if p is None]
         if unknown:
-            raise UsageError(f"{where}unknown joint names: {', '.join(unknown)}")
+            shown = ", ".join(n if n.isascii() else f"{ascii(n)} (not ASCII)" for n in unknown)
+            raise UsageError(f"{where}unknown joint names: {shown}")
         prefixes = sorted({p[0] for p in parts if p is not None})
         if len(prefixes) > 1:
             shown = ", ".join(repr(p or "(none)") for p in prefixes)

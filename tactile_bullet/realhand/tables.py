@@ -12,6 +12,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import UsageError
+from ..files import not_a_file
 from ..hand import JOINT_NAMES
 from .calibration import Calibration
 from .joints import JointMap, JointSamples, _check_finite, _check_time
@@ -113,8 +114,9 @@ def read_table(
     ``prefix`` ("rh") keeps one hand's columns of a table that holds two."""
     path = Path(path)
     where = str(path)
-    if not path.is_file():
-        raise UsageError(f"recording {path} does not exist")
+    problem = not_a_file(path)
+    if problem:
+        raise UsageError(f"recording {path} {problem}")
     columns = _table_columns(path)
     if time_column not in columns:
         raise UsageError(f"{where} has no {time_column!r} column")
@@ -142,7 +144,8 @@ def read_table(
             raise UsageError(f"{where}: no joint columns of hand prefix {shown!r}")
     unknown = [e for e in effort_cols if e not in joints]
     if unknown:
-        raise UsageError(f"{where}: effort columns for no position column: {', '.join(unknown)}")
+        shown = ", ".join(ascii(e + "_effort") for e in unknown)  # ascii: show odd characters
+        raise UsageError(f"{where}: effort columns without their position column: {shown}")
     jmap = JointMap(joints, calibration, where)
     time = _floats(columns[time_column], where, f"column {time_column!r}")
     if time.size and np.nanmax(np.abs(time)) > MAX_TIME_S:

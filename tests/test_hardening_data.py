@@ -442,3 +442,32 @@ def test_a_lookalike_unicode_joint_name_is_shown_as_such(tmp_path, capsys, files
     path = _table(tmp_path, files, lambda text: text.replace("rh_FFJ3", cyrillic))
     err = run_error(capsys, ["import", str(path), "--out", str(tmp_path / "o")])
     assert "\\u0408" in err and "not ASCII" in err
+
+
+# --- item 9: recordings have no contact truth -------------------------------------------------
+
+
+def test_temporal_on_recordings_reports_no_agreement_figure(tmp_path, capsys, synthetic_split):
+    from tactile_bullet.experiments.temporal import run_experiment, summary_text
+    from tactile_bullet.realhand.recordings import read_recording
+
+    path = tmp_path / "rec.csv"
+    export(synthetic_split[1][:3], path, "csv")
+    records = [g.record for g in read_recording(path, marker="none", gap_s=0.5)]
+    doc = run_experiment(records, tmp_path / "out")
+    det = doc["detectors"]
+    assert det["contact_truth"] is False and det["measured_non_contact"] is None
+    for method in ("position", "dynamic"):
+        assert det[method]["agreement"] is None and det[method]["false_non_contact"] is None
+        assert 0 <= det[method]["detected_non_contact"] <= det["fingers"]
+    assert doc["dtw"]["raw"]["identified"] is not None  # the file labels its grasps
+    import dataclasses
+
+    unlabelled = [dataclasses.replace(r, shape="unknown") for r in records]
+    doc = run_experiment(unlabelled, tmp_path / "out", force=True)
+    assert doc["dtw"]["raw"]["identified"] is None  # neither right nor wrong
+    text = summary_text(doc)
+    assert "no contact truth" in text and "agreement" not in text.replace("without an agree", "")
+    assert "out of contact at the end" not in text and "%" not in text
+    simulated = run_experiment(synthetic_split[1][:3], tmp_path / "sim")["detectors"]
+    assert simulated["contact_truth"] is True and simulated["position"]["agreement"] is not None

@@ -471,3 +471,27 @@ def test_temporal_on_recordings_reports_no_agreement_figure(tmp_path, capsys, sy
     assert "out of contact at the end" not in text and "%" not in text
     simulated = run_experiment(synthetic_split[1][:3], tmp_path / "sim")["detectors"]
     assert simulated["contact_truth"] is True and simulated["position"]["agreement"] is not None
+
+
+# --- item 27: long work is never silent, also when stderr is a log -----------------------------
+
+
+def test_progress_lines_reach_a_log_from_deep_loops(tmp_path, capsys, monkeypatch, synthetic_split):
+    """stderr here is not a terminal (a log): train --classifier tcn reports its epochs, and
+    the grasp loops of generate/demo report through console.progress."""
+    from tactile_bullet import console
+
+    monkeypatch.setattr(console, "PROGRESS_EVERY_S", 0.0)
+    data = tmp_path / "train"
+    write_dataset(synthetic_split[0][:30], data, {"test": True})
+    argv = ["train", "--data", str(data), "--descriptor", "time-series", "--classifier", "tcn",
+            "--param", "epochs=3", "--out", str(tmp_path / "m.npz"), "--json"]  # fmt: skip
+    assert main(argv) == 0
+    out, err = capsys.readouterr()
+    assert json.loads(out)  # stdout stays one JSON document
+    assert "tcn training epochs: 1/3" in err and "tcn training epochs: 2/3" in err
+    with console.reporting(True):
+        assert list(console.progress(range(3), 3, "grasps", enabled=False)) == [0, 1, 2]
+    assert "grasps: 3/3 (100%)" in capsys.readouterr().err
+    assert list(console.progress(range(3), 3, "grasps", enabled=False)) == [0, 1, 2]
+    assert capsys.readouterr().err == ""  # library use, no reporting asked: silent

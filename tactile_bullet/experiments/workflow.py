@@ -515,6 +515,7 @@ def demo(
         "by_size": result.get("by_size", {}),
         "by_position": result.get("by_position", {}),
         "by_rotation": result.get("by_rotation", {}),
+        "bins": result.get("bins", {}),
         "train_records": len(train_records),
         "test_records": len(test_records),
         "refused_poses": len(train_set.refused) + len(test_set.refused),

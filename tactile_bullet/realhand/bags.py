@@ -110,7 +110,7 @@ def read_bag(
                             others.add(names)  # the other hand, not chosen
                             continue
                         current = maps[names] = JointMap(names, calibration, where)
-                        hands = sorted({m.prefix for m in maps.values()})
+                        hands = sorted({m.prefix.lower() for m in maps.values()})
                         if len(hands) > 1:
                             shown = ", ".join(repr(h + "_" if h else "(none)") for h in hands)
                             raise UsageError(

@@ -73,7 +73,7 @@ def calibration_from_dict(doc: Mapping, source: str = "calibration") -> Calibrat
         name = canonical_joint(raw_name)
         if name is None:
             raise UsageError(f"{source}: unknown joint {raw_name!r}")
-        hand = split_name(raw_name)[0]
+        hand = split_name(raw_name)[0].lower()
         if hand and prefixes and hand not in prefixes:
             raise UsageError(
                 f"{source}: joints.{raw_name} is for hand {hand!r}, an earlier entry for "

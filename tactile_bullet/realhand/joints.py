@@ -82,7 +82,7 @@ class JointMap:
         self._j2 = np.array(j2_dst, int)
         self._j1 = np.array(j1_dst, int)
         calibration = calibration or Calibration()
-        if calibration.prefix and calibration.prefix != self.prefix:
+        if calibration.prefix and calibration.prefix != self.prefix.lower():
             raise UsageError(
                 f"{where}the calibration is for hand prefix {calibration.prefix!r}, the "
                 f"recording's joints carry {self.prefix or '(none)'!r}: one hand per file"

@@ -63,7 +63,7 @@ def hand_prefix(names: Sequence[str]) -> str:
     for name in names:
         parts = split_name(name)
         if parts is not None:
-            return parts[0]
+            return parts[0].lower()
     return ""
 
 
@@ -72,7 +72,7 @@ def prefix_option(text: str | None) -> str | None:
     without one; None when not given (a recording must then hold one hand)."""
     if text is None:
         return None
-    value = text.strip().rstrip("_")
+    value = text.strip().rstrip("_").lower()
     if value.lower() == "none":
         return ""
     if not re.fullmatch(r"[A-Za-z][A-Za-z0-9]*", value):

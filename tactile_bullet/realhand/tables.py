@@ -137,7 +137,7 @@ def read_table(
         else:
             joints.append(name)
     if prefix is not None:
-        joints = [j for j in joints if (p := split_name(j)) is None or p[0] == prefix]
+        joints = [j for j in joints if (p := split_name(j)) is None or p[0].lower() == prefix]
         effort_cols = {j: c for j, c in effort_cols.items() if j in joints}
         if not joints:
             shown = prefix + "_" if prefix else "(none)"

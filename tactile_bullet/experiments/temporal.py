@@ -130,14 +130,16 @@ def svm_scores(records: Sequence, seeds: Sequence[int] = (0, 1, 2), test_fractio
     """SVM, SVM_pos and SVM_dyn (signature + svm, ``correction`` none / position / dynamic) on
     the same held-out splits: mean accuracy overall, on centred and on off-centre objects,
     and the first split's confusion matrices."""
+    from ..console import tick
     from .reports import class_order, confusion_matrix
     from .workflow import labels_of, predict, split, train
 
     scores: dict[str, Any] = {}
     matrices: dict[str, Any] = {}
-    for correction in ("none", "position", "dynamic"):
+    for c, correction in enumerate(("none", "position", "dynamic")):
         acc = {"all": [], "centred": [], "off_centre": []}
         for k, seed in enumerate(seeds):
+            tick("SVM, SVM_pos, SVM_dyn splits trained", c * len(seeds) + k, 3 * len(seeds))
             tr, te = split(records, test_fraction, seed)
             model = train(tr, "signature", "svm", None, {"correction": correction})
             y, p = labels_of(te), predict(model, te)
@@ -167,9 +169,12 @@ def dtw_scores(records: Sequence, correction: str = "dynamic") -> dict[str, Any]
     lib = size_matched_library()
     out: dict[str, Any] = {}
     dropped = np.array([not detect(r, correction).contact_mask.all() for r in records])
+    from ..console import tick
+
     for label, method in (("raw", "none"), ("corrected", correction)):
         own, other, right = [], [], []
-        for r in records:
+        for i, r in enumerate(records):
+            tick(f"DTW distances ({label} signatures)", i, len(records))
             keep = np.ones(4, bool) if method == "none" else detect(r, method).contact_mask
             ident, keep = identify_masked(r.fci_angles(), keep)
             # an unlabelled recording is neither right nor wrong

@@ -495,3 +495,13 @@ def test_progress_lines_reach_a_log_from_deep_loops(tmp_path, capsys, monkeypatc
     assert "grasps: 3/3 (100%)" in capsys.readouterr().err
     assert list(console.progress(range(3), 3, "grasps", enabled=False)) == [0, 1, 2]
     assert capsys.readouterr().err == ""  # library use, no reporting asked: silent
+
+
+def test_identifier_takes_one_hand(synthetic_split):
+    from tactile_bullet import Identifier
+
+    ident = Identifier(_trained(synthetic_split))
+    ident.update(0.0, ["rh_" + n for n in JOINT_NAMES], np.zeros(len(JOINT_NAMES)))
+    with pytest.raises(UsageError, match="one hand per Identifier"):
+        ident.update(0.1, ["lh_" + n for n in JOINT_NAMES], np.zeros(len(JOINT_NAMES)))
+    assert ident.samples == 1

@@ -91,6 +91,7 @@ def run(args: argparse.Namespace) -> int:
         "marker": args.marker,
         "gap_s": options["gap_s"],
         "shape": args.shape,
+        "prefix": options["prefix"],
         "calibration": options["calibration"].to_dict() if options["calibration"] else None,
     }
     doc = write_dataset(records, args.out, origin, force=args.force)

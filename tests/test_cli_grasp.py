@@ -74,3 +74,26 @@ def test_unwritable_output_is_refused_before_simulating(tmp_path, capsys):
 def test_gui_without_a_display_is_a_clear_error(monkeypatch, capsys):
     monkeypatch.delenv("DISPLAY", raising=False)
     assert "display" in run_error(capsys, ["grasp", "--shape", "sphere", "--gui"])
+
+
+def test_off_centre_sphere_gives_one_answer_and_no_estimate_out_of_range(capsys):
+    # The case of issue 18: a sphere 25 mm off-centre along O-O' read "identified torus,
+    # rotation estimate 95 deg" (outside the calibrated 0-25 deg), and the shape fit, which
+    # names it a sphere, was not shown.
+    argv = ["grasp", "--shape", "sphere", "--offset", "0.025,0,0"]
+    assert main([*argv, "--json"]) == 0
+    doc = json.loads(capsys.readouterr().out)
+    assert doc["answer"] == {
+        "shape": doc["shape_fit"]["shape"], "identifier": "shape-fit",
+        "others": {"signature": doc["signature"]["identified"]},
+    }  # fmt: skip
+    assert doc["answer"]["shape"] == "sphere"
+    sig = doc["signature"]
+    assert sig["rotation_estimate_deg"] is None
+    assert "outside the calibrated 0-25 deg" in sig["rotation_estimate_withheld"]
+    assert main(argv) == 0
+    lines = capsys.readouterr().out.splitlines()
+    assert lines[1].startswith("identified: sphere by the shape fit")
+    text = "\n".join(lines)
+    assert f"signature (DTW to the thesis patterns): {sig['identified']}" in text
+    assert "rotation estimate withheld: " in text and "rotation estimate: " not in text

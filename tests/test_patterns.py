@@ -145,6 +145,7 @@ def test_signature_summary_has_the_grasp_json_fields(grasps):
     assert set(summary) == {
         "alpha_deg", "rotation_estimate_deg", "identified", "identified_uncorrected",
         "nearest_pattern", "distances", "in_identification_range", "correction",
+        "rotation_estimate_withheld",
     }  # fmt: skip
     assert summary["correction"]["detector"] == "dynamic"
     assert set(summary["distances"]) == set(default_library())

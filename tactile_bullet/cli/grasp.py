@@ -127,6 +127,7 @@ def run(args: argparse.Namespace) -> int:
         "shape_fit": shape_fit_summary(record),
         "outputs": {k: str(v) for k, v in outputs.items()},
     }
+    doc["answer"] = grasp_answer(doc["shape_fit"], signature)
     if (mesh := mesh_block(shape)) is not None:
         doc["mesh"] = mesh
     if args.json:
@@ -136,6 +137,19 @@ def run(args: argparse.Namespace) -> int:
         if "mesh" in doc:
             print(mesh_summary(doc["mesh"]))
     return 0
+
+
+def grasp_answer(fit: dict | None, signature: dict | None) -> dict:
+    """The one answer of a grasp (docs/json.md ``answer``): the shape fit's where it fitted
+    (the best training-free identifier, 95%+ where the signature's DTW falls to 60-80%,
+    docs/benchmark.md), else the signature's; the other identifier's name is detail."""
+    by_signature = signature.get("identified") if signature else None
+    if fit is not None:
+        return {"shape": fit["shape"], "identifier": "shape-fit",
+                "others": {"signature": by_signature}}  # fmt: skip
+    if by_signature is not None:
+        return {"shape": by_signature, "identifier": "signature", "others": {"shape-fit": None}}
+    return {"shape": None, "identifier": None, "others": {}}
 
 
 def _signature_block(record) -> dict | None:
@@ -164,31 +178,50 @@ def _print_summary(doc: dict) -> None:
     params = ", ".join(f"{k}={v:g} m" for k, v in doc["params"].items())
     print(f"{doc['shape']} ({params}), offset {doc['pose']['offset']} m, "
           f"rotation {doc['pose']['rotation_deg']:g} deg, {doc['mode']} mode")  # fmt: skip
-    print("final joint angles (deg):")
-    angles = doc["joint_angles"]
-    for finger in FINGERS:
-        names = [n for n in angles if n.lower().startswith(finger)]
-        row = "  ".join(f"{n}={math.degrees(angles[n]):6.1f}" for n in names)
-        print(f"  {finger}: {row}")
-    touching = ", ".join(doc["fingers_in_contact"]) or "none"
-    print(f"fingers in contact: {touching}")
-    print(f"simulated {doc['sim_time_s']:.3f} s in {doc['steps']} steps, "
-          f"wall time {doc['wall_time_s']:.3f} s")  # fmt: skip
-    if doc["flags"]:
-        print(f"flags: {', '.join(doc['flags'])}")
+    print(_answer_line(doc))
+    print("detail:")
     sig = doc["signature"]
     if sig and sig.get("reason"):
-        print(f"signature: {sig['reason']}")
+        print(f"  signature: {sig['reason']}")
     elif sig:
+        print(f"  signature (DTW to the thesis patterns): {sig['identified']}, nearest pattern "
+              f"{sig['nearest_pattern']}, alpha {sig['alpha_deg']:.1f} deg")  # fmt: skip
         est = sig.get("rotation_estimate_deg")
-        est_text = "n/a" if est is None else f"{est:.1f} deg"
-        named = f"identified {sig['identified']}, nearest pattern {sig['nearest_pattern']}"
-        print(f"signature: alpha {sig['alpha_deg']:.1f} deg, rotation estimate {est_text}, {named}")
+        if est is not None:
+            print(f"  rotation estimate: {est:.1f} deg")
+        else:
+            print(f"  rotation estimate withheld: {sig['rotation_estimate_withheld']}")
+    touching = ", ".join(doc["fingers_in_contact"]) or "none"
+    print(f"  fingers in contact: {touching}")
     temporal = doc.get("temporal")
     if temporal:
         dyn = temporal["dynamic"]
         off = ", ".join(dyn["non_contact"]) or "none"
-        print(f"fingers off the object (dynamic detector): {off}, all known at "
+        print(f"  fingers off the object (dynamic detector): {off}, all known at "
               f"{dyn['decided_at_s']:.2f} s")  # fmt: skip
+    print(f"  simulated {doc['sim_time_s']:.3f} s in {doc['steps']} steps, "
+          f"wall time {doc['wall_time_s']:.3f} s")  # fmt: skip
+    if doc["flags"]:
+        print(f"  flags: {', '.join(doc['flags'])}")
+    print("  final joint angles (deg):")
+    angles = doc["joint_angles"]
+    for finger in FINGERS:
+        names = [n for n in angles if n.lower().startswith(finger)]
+        row = "  ".join(f"{n}={math.degrees(angles[n]):6.1f}" for n in names)
+        print(f"    {finger}: {row}")
     for key, path in doc["outputs"].items():
         print(f"wrote {key}: {path}")
+
+
+def _answer_line(doc: dict) -> str:
+    """``identified: SHAPE by IDENTIFIER (...)``, the line the ``answer`` block prints as."""
+    answer = doc["answer"]
+    if answer["shape"] is None:
+        return "identified: nothing (the grasp touched too little)"
+    if answer["identifier"] == "shape-fit":
+        fit = doc["shape_fit"]
+        sizes = ", ".join(f"{k} {v * 1000:.1f} mm" for k, v in fit["params"].items())
+        how = f"the shape fit ({sizes}, residual {fit['residual']:.3f} rad)"
+    else:
+        how = "the signature (the shape fit could not fit the angles)"
+    return f"identified: {answer['shape']} by {how}"

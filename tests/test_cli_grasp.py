@@ -97,3 +97,40 @@ def test_off_centre_sphere_gives_one_answer_and_no_estimate_out_of_range(capsys)
     text = "\n".join(lines)
     assert f"signature (DTW to the thesis patterns): {sig['identified']}" in text
     assert "rotation estimate withheld: " in text and "rotation estimate: " not in text
+
+
+@pytest.mark.parametrize("name", ["closing.gif", "closing.mp4"])
+def test_video_of_the_closing_hand(tmp_path, capsys, name):
+    import cv2
+
+    video, rec = tmp_path / name, tmp_path / "rec.npz"
+    argv = ["grasp", "--shape", "cylinder", "--video", str(video), "--video-every", "12",
+            "--out", str(rec), "--json"]  # fmt: skip
+    assert main(argv) == 0
+    doc = json.loads(capsys.readouterr().out)
+    samples = len(load_record(rec).time)  # every 12th sample from the first, and the last
+    frames = len(range(0, samples, 12)) + ((samples - 1) % 12 != 0)
+    assert doc["video"] == {"frames": frames, "every": 12, "size": 240}
+    assert doc["outputs"]["video"] == str(video)
+    capture = cv2.VideoCapture(str(video))  # reads both: the frames a player shows
+    shown = 0
+    while True:
+        ok, image = capture.read()
+        if not ok:
+            break
+        assert image.shape == (240, 480, 3)  # two labelled views side by side
+        shown += 1
+    assert shown == frames
+
+
+def test_video_refusals_come_before_simulating(tmp_path, capsys):
+    err = run_error(capsys, ["grasp", "--shape", "sphere", "--video", str(tmp_path / "v.avi")])
+    assert ".mp4 or .gif" in err
+    err = run_error(capsys, ["grasp", "--shape", "sphere", "--video-every", "3"])
+    assert "--video" in err
+    err = run_error(
+        capsys, ["grasp", "--shape", "sphere", "--video", str(tmp_path / "v.gif"),
+                 "--video-every", "0"],
+    )  # fmt: skip
+    assert "--video-every" in err
+    assert not list(tmp_path.iterdir())

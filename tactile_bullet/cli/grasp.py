@@ -59,7 +59,17 @@ def add_parser(sub) -> None:
     parser.add_argument("--out", help="write the GraspRecord to this .npz file")
     parser.add_argument("--snapshot", help="render the grasp to this PNG (CPU renderer)")
     parser.add_argument("--plot", help="draw FCI and signatures of the grasp to this PNG")
-    add_force_flag(parser, "--out, --snapshot and --plot files")
+    parser.add_argument(
+        "--video", metavar="FILE",
+        help="replay the closing hand into this .mp4 or .gif (CPU renderer, two views of "
+        "240 px, 30 frames per second)",
+    )  # fmt: skip
+    parser.add_argument(
+        "--video-every", type=int, metavar="K",
+        help="draw every K-th recorded sample (60 per simulated second) into --video "
+        "(default: 2, real time, or more to keep within 120 frames)",
+    )  # fmt: skip
+    add_force_flag(parser, "--out, --snapshot, --plot and --video files")
     parser.add_argument("--gui", action="store_true", help="show PyBullet's window")
     parser.add_argument("--json", action="store_true", help="print one JSON document")
     parser.set_defaults(run=run)
@@ -82,10 +92,19 @@ def run(args: argparse.Namespace) -> int:
     offset = parse_offset(args.offset)
     pose = Pose(offset, parse_rotation(args.rotation))
     controller = _controller(args)
-    outputs = output_files({f: getattr(args, f) for f in ("out", "snapshot", "plot")}, args.force)
+    outputs = output_files(
+        {f: getattr(args, f) for f in ("out", "snapshot", "plot", "video")}, args.force
+    )
     for flag in ("snapshot", "plot"):
         if flag in outputs:
             image_file(outputs[flag], f"--{flag}", "cv2" if flag == "snapshot" else "matplotlib")
+    if "video" in outputs:
+        from ..sim.render import check_video_path, video_step
+
+        check_video_path(outputs["video"])
+        video_step(2, args.video_every)  # refuses a bad --video-every before simulating
+    elif args.video_every is not None:
+        raise UsageError("--video-every sets the frames of --video: give --video too")
 
     from ..sim.grasp import resolve_shape, timed_grasp
 
@@ -104,6 +123,11 @@ def run(args: argparse.Namespace) -> int:
         from ..records import save_record
 
         save_record(record, outputs["out"])
+    video = None
+    if "video" in outputs:
+        from ..sim.render import write_video
+
+        video = write_video(record, shape, outputs["video"], every=args.video_every)
     signature = _signature_block(record)
     if "plot" in outputs:
         from ..experiments.figures_signature import plot_grasp_signature
@@ -127,6 +151,8 @@ def run(args: argparse.Namespace) -> int:
         "shape_fit": shape_fit_summary(record),
         "outputs": {k: str(v) for k, v in outputs.items()},
     }
+    if video is not None:
+        doc["video"] = {k: v for k, v in video.items() if k != "path"}
     doc["answer"] = grasp_answer(doc["shape_fit"], signature)
     if (mesh := mesh_block(shape)) is not None:
         doc["mesh"] = mesh

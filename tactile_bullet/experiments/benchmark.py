@@ -28,6 +28,7 @@ from typing import Any
 
 import numpy as np
 
+from ..console import plural
 from ..errors import UsageError
 from ..learn.perturb import perturb_all
 from ..records import GraspRecord
@@ -125,7 +126,7 @@ def simulate_sets(
     for spec in specs:
         path = cache / spec.name
         if not _complete(path, spec):
-            log(f"simulating {spec.name} ({len(spec.sweep().tasks(spec.seed))} grasps)")
+            log(f"simulating {spec.name} ({plural(len(spec.sweep().tasks(spec.seed)), 'grasp')})")
             resume = (path / MANIFEST).exists()
             # small shards: a killed run loses at most 8 grasps per worker's block
             generate(spec.sweep(), path, workers=workers, resume=resume, seed=spec.seed,

@@ -19,6 +19,7 @@ from typing import Any
 
 import numpy as np
 
+from ..console import plural
 from ..errors import UsageError
 from ..files import atomic_path, json_value, probe_folder, write_bytes_atomic
 
@@ -226,14 +227,15 @@ def confusion_text(cm: Sequence[Sequence[int]], classes: Sequence[str]) -> str:
 def summary_text(report: Mapping[str, Any]) -> str:
     """What ``evaluate`` prints on a terminal: accuracy, confusion matrix, per-bin accuracy."""
     lines = [
-        f"accuracy: {100 * report['accuracy']:.1f}% on {report.get('records', '?')} grasps",
+        f"accuracy: {100 * report['accuracy']:.1f}% on {_grasps(report)}",
         "",
         confusion_text(report["confusion_matrix"], report["classes"]),
         "",
     ]
     if report.get("no_contact"):
         lines.append(
-            f"{report['no_contact']} grasps touched too little to carry a shape (scored anyway)"
+            f"{plural(report['no_contact'], 'grasp')} touched too little to carry a shape "
+            "(scored anyway)"
         )
     if report.get("unknown_classes"):
         unknown = ", ".join(report["unknown_classes"])
@@ -343,12 +345,18 @@ def plot_bins(
     return _save(fig, Path(path))
 
 
+def _grasps(report: Mapping[str, Any]) -> str:
+    """``"10 grasps"``, ``"1 grasp"``, ``"? grasps"`` where the report does not say."""
+    n = report.get("records")
+    return "? grasps" if n is None else plural(int(n), "grasp")
+
+
 def report_title(report: Mapping[str, Any], what: str) -> str:
     """``signature + svm: 80.0% of 10 grasps; WHAT``: the method and its accuracy, so a
     figure read alone says what it scores."""
     model = report.get("model") or {}
     method = " + ".join(str(model[k]) for k in ("descriptor", "classifier") if k in model)
-    score = f"{100 * report['accuracy']:.1f}% of {report.get('records', '?')} grasps"
+    score = f"{100 * report['accuracy']:.1f}% of {_grasps(report)}"
     return f"{method or 'model'}: {score}\n{what}"
 
 

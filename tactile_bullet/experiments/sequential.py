@@ -30,6 +30,7 @@ from typing import Any
 import numpy as np
 from sklearn.model_selection import train_test_split
 
+from ..console import plural
 from ..errors import UsageError
 from ..learn.neural_forest import NeuralForestClassifier, per_class_accuracy
 
@@ -208,7 +209,7 @@ def experiment(
     final_off = [r["off_acc"][-1] for r in results]
     final_seq = [r["seq_acc"][-1] for r in results]
     say(
-        f"final accuracy over {len(orders)} orders: offline {np.mean(final_off):.3f} "
+        f"final accuracy over {plural(len(orders), 'order')}: offline {np.mean(final_off):.3f} "
         f"+- {np.std(final_off):.3f}, sequential {np.mean(final_seq):.3f} "
         f"+- {np.std(final_seq):.3f}"
     )

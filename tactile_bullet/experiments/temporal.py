@@ -14,6 +14,7 @@ from typing import Any
 
 import numpy as np
 
+from ..console import plural
 from ..errors import UsageError
 from ..perception.temporal import DETECTORS, contact_truth, detect, finger_areas, g_of, gbin
 
@@ -221,7 +222,7 @@ def summary_text(doc: dict[str, Any]) -> str:
     """What ``tactile-bullet temporal`` prints without --json."""
     det = doc["detectors"]
     lines = [
-        f"{doc['records']} grasps, {det['fingers']} fingers, "
+        f"{plural(doc['records'], 'grasp')}, {plural(det['fingers'], 'finger')}, "
         f"{det['measured_non_contact']} of them out of contact at the end",
     ]
     for m in DETECTORS:
@@ -248,5 +249,5 @@ def summary_text(doc: dict[str, Any]) -> str:
         f"  training-free DTW: {100 * d['raw']['identified']:.1f}% raw, "
         f"{100 * d['corrected']['identified']:.1f}% corrected ({d['correction']})"
     )
-    lines.append(f"wrote {len(doc['outputs'])} files")
+    lines.append(f"wrote {plural(len(doc['outputs']), 'file')}")
     return "\n".join(lines) + "\n"

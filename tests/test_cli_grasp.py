@@ -134,3 +134,13 @@ def test_video_refusals_come_before_simulating(tmp_path, capsys):
     )  # fmt: skip
     assert "--video-every" in err
     assert not list(tmp_path.iterdir())
+
+
+def test_a_grasp_that_touched_too_little_has_no_answer():
+    from tactile_bullet.cli.grasp import grasp_answer
+
+    fit = {"shape": "cone", "params": {}, "residual": 0.4}
+    too_little = {"identified": None, "reason": "no contact: nothing to identify (...)"}
+    assert grasp_answer(fit, too_little)["shape"] is None  # a fist fitted says nothing
+    assert grasp_answer(None, {"identified": "torus"}) == {
+        "shape": "torus", "identifier": "signature", "others": {"shape-fit": None}}

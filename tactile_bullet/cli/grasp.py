@@ -167,9 +167,13 @@ def run(args: argparse.Namespace) -> int:
 
 def grasp_answer(fit: dict | None, signature: dict | None) -> dict:
     """The one answer of a grasp (docs/json.md ``answer``): the shape fit's where it fitted
-    (the best training-free identifier, 95%+ where the signature's DTW falls to 60-80%,
-    docs/benchmark.md), else the signature's; the other identifier's name is detail."""
+    (the better training-free identifier: 98.6% of the invariance grid's grasps against the
+    signature's 60.2%, docs/signature_invariance.md), else the signature's; the other
+    identifier's name is detail. None
+    where the grasp touched too little to carry a shape."""
     by_signature = signature.get("identified") if signature else None
+    if signature and signature.get("reason"):  # touched too little: a fit of a fist says nothing
+        return {"shape": None, "identifier": None, "others": {}}
     if fit is not None:
         return {"shape": fit["shape"], "identifier": "shape-fit",
                 "others": {"signature": by_signature}}  # fmt: skip

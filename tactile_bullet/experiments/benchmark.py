@@ -362,8 +362,8 @@ def _small_multiples(plt, name: str, protocol: P.Protocol, curves, descs: list[s
     (at most 4 a row)."""
     clfs = list(dict.fromkeys(m[1] for c in curves.values() for m in c))
     colours = plt.get_cmap("tab10")
-    ncol = min(4, len(descs))
-    per_block = -(-len(descs) // ncol)
+    per_block = -(-len(descs) // 4)  # rows of panels a curve takes, at most 4 panels a row
+    ncol = -(-len(descs) // per_block)  # as even as the rows allow: 5 -> 3 + 2, not 4 + 1
     nrow = per_block * len(curves)
     fig, axes = plt.subplots(nrow, ncol, figsize=(3.1 * ncol + 0.6, 2.45 * nrow + 1.0),
                              sharey=True, squeeze=False)  # fmt: skip

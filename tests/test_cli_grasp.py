@@ -134,6 +134,10 @@ def test_video_refusals_come_before_simulating(tmp_path, capsys):
     )  # fmt: skip
     assert "--video-every" in err
     assert not list(tmp_path.iterdir())
+    kept = tmp_path / "old.gif"
+    kept.write_bytes(b"an earlier video")
+    err = run_error(capsys, ["grasp", "--shape", "sphere", "--video", str(kept)])
+    assert "--force" in err and kept.read_bytes() == b"an earlier video"
 
 
 def test_a_grasp_that_touched_too_little_has_no_answer():

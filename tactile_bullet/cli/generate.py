@@ -9,6 +9,7 @@ import threading
 import time
 from pathlib import Path
 
+from ..console import plural
 from ..errors import UsageError
 from .common import MAX_WORKERS, count, emit_json, seed_number, show_progress
 
@@ -124,7 +125,8 @@ def run(args: argparse.Namespace) -> int:
         emit_json(doc)
     else:
         print(
-            f"{doc['records']} grasps in {doc['shards']} shards at {doc['out']} "
+            f"{plural(doc['records'], 'grasp')} in {plural(doc['shards'], 'shard')} at "
+            f"{doc['out']} "
             f"({doc['failed']} failed) in {doc['wall_time_s']:.1f} s"
         )
         for problem in doc["repaired"]:

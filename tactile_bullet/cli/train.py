@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 
+from ..console import plural
 from .common import add_force_flag, emit_json, estimator_params, writable_file
 from .data_args import add_allow_partial, read_data, report_skipped
 
@@ -73,7 +74,7 @@ def run(args: argparse.Namespace) -> int:
         emit_json(doc)
     else:
         print(
-            f"trained {doc['descriptor']} + {doc['classifier']} on {len(records)} grasps "
+            f"trained {doc['descriptor']} + {doc['classifier']} on {plural(len(records), 'grasp')} "
             f"({', '.join(doc['classes'])}) in {fit_time:.2f} s, {args.training} training"
         )
         print(f"wrote model: {path}")

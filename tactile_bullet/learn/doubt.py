@@ -278,15 +278,24 @@ def evaluation_doubt(model, records: Sequence, y_true, y_pred, proba) -> dict[st
 
 
 def pair_doubt(
-    classifier: str, estimator, train: tuple, x_test, y_test, seconds=None
+    classifier: str, estimator, train: tuple, test: tuple, cache: dict | None = None
 ) -> dict[str, Any]:
     """A fitted pair's doubt on a test set (``compare``): its threshold (calibrated on held-out
-    folds of the training set ``(features, labels, records)``), the cross-check's test answers
-    ``seconds`` where it applies, and the share of all, right and wrong test answers flagged;
-    ``reason`` instead of a threshold where it could not be calibrated."""
+    folds of the training set, ``train`` and ``test`` each ``(features, labels, records)``),
+    the cross-check's answers on the test records where it applies (kept in ``cache`` for the
+    next pair), and the share of all, right and wrong test answers flagged; ``reason`` instead
+    of a threshold where it could not be calibrated."""
     from ..plugins import get_classifier
 
     x_train, y_train, records = train
+    x_test, y_test, test_records = test
+    classes = sorted({str(c) for c in y_train})
+    seconds = None
+    if cross_check_applies(classes, classifier):
+        cache = {} if cache is None else cache
+        if "seconds" not in cache:
+            cache["seconds"] = cross_check_names(test_records, classes)
+        seconds = cache["seconds"]
     calibration = calibrate_margin(
         lambda: get_classifier(classifier), x_train, y_train,
         records=records if seconds is not None else None, classifier=classifier,

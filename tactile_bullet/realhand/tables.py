@@ -12,6 +12,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import UsageError
+from ..files import INPUT_LIMITS, input_path
 from ..hand import JOINT_NAMES
 from .calibration import Calibration
 from .joints import JointMap, JointSamples, _check_finite, _check_time
@@ -79,8 +80,7 @@ def read_table(
     """Joint states of a CSV or Parquet table (see the module docstring for its columns)."""
     path = Path(path)
     where = str(path)
-    if not path.is_file():
-        raise UsageError(f"recording {path} does not exist")
+    input_path(path, "recording", INPUT_LIMITS["table"])
     columns = _table_columns(path)
     if time_column not in columns:
         raise UsageError(f"{where} has no {time_column!r} column")

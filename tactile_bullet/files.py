@@ -223,9 +223,9 @@ def check_npz_members(
 ) -> None:
     """Refuse an ``.npz`` (a zip of ``.npy`` arrays) whose members are not all ``allowed`` or
     would decompress past ``member_limit`` bytes each (``total_limit`` together) before any
-    is decompressed. Both the zip's declared size and each array's own header (its shape
-    times its item size) are checked: numpy allocates what the header says, and a zip bomb
-    declares small sizes and inflates to gigabytes."""
+    is decompressed; the UsageError reads "``what`` <problem>". Both the zip's declared size
+    and each array's own header (its shape times its item size) are checked: numpy allocates
+    what the header says, and a zip bomb declares small sizes and inflates to gigabytes."""
     import io
     import zipfile
 
@@ -239,18 +239,19 @@ def check_npz_members(
                 if not info.filename.endswith(".npy") or not allowed(name):
                     raise UsageError(f"{what} holds an unexpected member {info.filename!r}")
                 total += info.file_size
-                if info.file_size > member_limit or total > total_limit:
+                if info.file_size > member_limit:
                     raise UsageError(
-                        f"{what}: member {info.filename!r} declares {info.file_size:,} bytes, "
-                        f"over the {member_limit:,}-byte limit"
-                        if info.file_size > member_limit
-                        else f"{what} declares {total:,} bytes in all, over {total_limit:,}"
+                        f"{what} has a member {info.filename!r} that declares "
+                        f"{info.file_size:,} bytes, over the {member_limit:,}-byte limit"
                     )
+                if total > total_limit:
+                    raise UsageError(f"{what} declares {total:,} bytes in all, over the "
+                                     f"{total_limit:,}-byte limit")  # fmt: skip
                 with zf.open(info) as fh:
                     size = _npy_data_bytes(fh)
                 if size is None or size > info.file_size:
                     raise UsageError(
-                        f"{what}: member {info.filename!r} has a header that does not fit it"
+                        f"{what} has a member {info.filename!r} whose header does not fit it"
                     )
     except UsageError:
         raise

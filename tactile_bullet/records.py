@@ -336,8 +336,12 @@ def load_record(path: str | Path) -> GraspRecord:
 
     path = Path(path)
     input_path(path, "record file")
-    check_npz_members(path, str(path), lambda n: n == "meta" or n in RECORD_ARRAYS,
-                      RECORD_MEMBER_LIMIT)  # fmt: skip
+    try:
+        check_npz_members(path, str(path), lambda n: n == "meta" or n in RECORD_ARRAYS,
+                          RECORD_MEMBER_LIMIT)  # fmt: skip
+    except UsageError as exc:
+        why = str(exc).removeprefix(f"{path} ")
+        raise UsageError(f"{path} is not a readable grasp record ({why})") from None
     try:
         with np.load(path, allow_pickle=False) as data:
             meta = json.loads(str(data["meta"]))

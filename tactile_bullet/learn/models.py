@@ -179,7 +179,11 @@ def _read(path: Path) -> tuple[dict, dict[str, np.ndarray]]:
     from ..files import check_npz_members, input_path
 
     input_path(path, "model file")
-    check_npz_members(path, f"model file {path}", _is_model_member, MODEL_MEMBER_LIMIT)
+    try:
+        check_npz_members(path, str(path), _is_model_member, MODEL_MEMBER_LIMIT)
+    except UsageError as exc:
+        why = str(exc).removeprefix(f"{path} ")
+        raise UsageError(f"{path} is not a tactile-bullet model ({why})") from None
     try:
         with np.load(path, allow_pickle=False) as data:
             contents = {k: data[k] for k in data.files}

@@ -21,8 +21,15 @@ from .names import LABEL_COLUMN, MARKER_COLUMN, NO_MARKER, TIME_COLUMN
 # --- tables -------------------------------------------------------------------------------------
 
 
-def _table_columns(path: Path) -> dict[str, list]:
-    """Column name -> values (text for CSV, Python values for Parquet)."""
+CSV_BLOCK_ROWS = 16_384
+"""Rows parsed at a time: each block's cells become float arrays before the next is read, so
+a large CSV never exists in memory as Python strings (a 1M-row file peaked at 14x its size)."""
+
+
+def _table_columns(path: Path, text: tuple = ()) -> dict[str, list | np.ndarray]:
+    """Column name -> values: a float array for a numeric CSV column, else its cells (text for
+    CSV, Python values for Parquet). ``text`` names CSV columns always kept as text (labels,
+    markers)."""
     if path.suffix.lower() in (".parquet", ".pq"):
         try:
             import pyarrow.parquet as pq
@@ -39,23 +46,63 @@ def _table_columns(path: Path) -> dict[str, list]:
 
     try:
         with open(path, newline="") as fh:
-            rows = list(csv.reader(fh))
+            return _csv_columns(path, csv.reader(fh), text)
     except (OSError, UnicodeDecodeError, csv.Error) as exc:
         raise UsageError(f"cannot read {path}: {exc}") from None
-    rows = [r for r in rows if r and not (len(r) == 1 and not r[0].strip())]
-    if not rows:
+
+
+def _csv_columns(path: Path, reader, text: tuple) -> dict[str, list | np.ndarray]:
+    """The columns of a CSV, parsed block by block (:data:`CSV_BLOCK_ROWS`)."""
+    import itertools
+
+    header: list[str] | None = None
+    line = 0
+    for row in reader:
+        line += 1
+        if row and not (len(row) == 1 and not row[0].strip()):
+            header = [h.strip() for h in row]
+            break
+    if header is None:
         raise UsageError(f"{path} is empty")
-    header = [h.strip() for h in rows[0]]
-    body = rows[1:]
-    for k, row in enumerate(body):
-        if len(row) != len(header):
-            raise UsageError(
-                f"{path}: line {k + 2} has {len(row)} fields, the header {len(header)}"
-            )
-    return {h: [r[j] for r in body] for j, h in enumerate(header)}
+    blocks: list[list] = [[] for _ in header]
+    read = True
+    while read:
+        rows, read = [], False
+        for row in itertools.islice(reader, CSV_BLOCK_ROWS):
+            line, read = line + 1, True
+            if not row or (len(row) == 1 and not row[0].strip()):
+                continue
+            if len(row) != len(header):
+                raise UsageError(f"{path}: line {line} has {len(row)} fields, the header "
+                                 f"{len(header)}")  # fmt: skip
+            rows.append(row)
+        for j, cells in enumerate(zip(*rows, strict=True)):
+            blocks[j].append(_block_values(cells, header[j] in text))
+        del rows
+    columns: dict[str, list | np.ndarray] = {}
+    for name, parts in zip(header, blocks, strict=True):
+        if all(isinstance(p, np.ndarray) for p in parts):
+            columns[name] = np.concatenate(parts) if parts else np.zeros(0)
+        else:  # text, or a cell that is not a plain number: the checks below name it
+            columns[name] = [v for p in parts for v in (p.tolist() if isinstance(p, np.ndarray)
+                                                        else p)]  # fmt: skip
+        parts.clear()
+    return columns
 
 
-def _floats(values: list, where: str, what: str) -> np.ndarray:
+def _block_values(cells: tuple, keep_text: bool) -> list | np.ndarray:
+    """A block of one column's cells as floats where every cell is a plain number."""
+    if not keep_text and "_" not in "".join(cells):  # "1_0" is not a number here
+        try:
+            return np.array(cells, dtype=float)
+        except ValueError:
+            pass
+    return list(cells)
+
+
+def _floats(values: list | np.ndarray, where: str, what: str) -> np.ndarray:
+    if isinstance(values, np.ndarray):
+        return values
     try:
         return np.array([float(v) if v not in ("", None) else math.nan for v in values], float)
     except (TypeError, ValueError):
@@ -81,7 +128,7 @@ def read_table(
     path = Path(path)
     where = str(path)
     input_path(path, "recording", INPUT_LIMITS["table"])
-    columns = _table_columns(path)
+    columns = _table_columns(path, (LABEL_COLUMN, MARKER_COLUMN, marker))
     if time_column not in columns:
         raise UsageError(f"{where} has no {time_column!r} column")
     marker_column = marker if marker is not None else (
@@ -107,6 +154,8 @@ def read_table(
     time = _floats(columns[time_column], where, f"column {time_column!r}")
     _check_time(time, where)
     raw = np.column_stack([_floats(columns[j], where, f"column {j!r}") for j in joints])
+    for j in joints:  # a large table is held once, as ``raw``
+        columns[j] = []
     missing = ~np.isfinite(raw)
     if missing.any():
         row, col = (int(v[0]) for v in np.nonzero(missing))
@@ -121,6 +170,7 @@ def read_table(
         )
         _check_finite(raw_eff, where, "efforts")
         efforts = jmap.efforts(raw_eff)
+        del raw_eff
     else:
         efforts = np.zeros((len(time), len(JOINT_NAMES)))
     groups = None

@@ -21,7 +21,7 @@ from .names import LABEL_COLUMN, MARKER_COLUMN, NO_MARKER, TIME_COLUMN
 # --- tables -------------------------------------------------------------------------------------
 
 
-CSV_BLOCK_ROWS = 16_384
+CSV_BLOCK_ROWS = 4_096
 """Rows parsed at a time: each block's cells become float arrays before the next is read, so
 a large CSV never exists in memory as Python strings (a 1M-row file peaked at 14x its size)."""
 

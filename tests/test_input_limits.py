@@ -140,10 +140,12 @@ def test_record_and_shard_bombs_are_refused_and_the_dataset_not_called_sound(
     # a header that claims more than the member holds (numpy would allocate it first)
     with zipfile.ZipFile(tmp_path / "liar.npz", "w") as zf:
         for name, arr in good.items():
+            if name == "time":
+                continue
             with zf.open(f"{name}.npy", "w") as fh:
                 np.lib.format.write_array(fh, arr, allow_pickle=False)
         header = np.lib.format.header_data_from_array_1_0(np.zeros(10**9))
-        with zf.open("time.npy", "w") as fh:  # a second, lying "time" member
+        with zf.open("time.npy", "w") as fh:  # a "time" member that claims 8 GB
             np.lib.format.write_array_header_1_0(fh, header)
     with pytest.raises(UsageError, match="whose header does not fit it"):
         load_record(tmp_path / "liar.npz")

@@ -153,9 +153,7 @@ def read_table(
     jmap = JointMap(joints, calibration, where)
     time = _floats(columns[time_column], where, f"column {time_column!r}")
     _check_time(time, where)
-    raw = np.column_stack([_floats(columns[j], where, f"column {j!r}") for j in joints])
-    for j in joints:  # a large table is held once, as ``raw``
-        columns[j] = []
+    raw = _stack(columns, joints, where)
     missing = ~np.isfinite(raw)
     if missing.any():
         row, col = (int(v[0]) for v in np.nonzero(missing))
@@ -165,9 +163,7 @@ def read_table(
         absent = [j for j in joints if j not in effort_cols]
         raise UsageError(f"{where}: effort columns missing for {', '.join(absent)}")
     if has_eff:
-        raw_eff = np.column_stack(
-            [_floats(columns[effort_cols[j]], where, f"column {effort_cols[j]!r}") for j in joints]
-        )
+        raw_eff = _stack(columns, [effort_cols[j] for j in joints], where)
         _check_finite(raw_eff, where, "efforts")
         efforts = jmap.efforts(raw_eff)
         del raw_eff
@@ -189,6 +185,19 @@ def read_table(
         coupled=jmap.coupled,
         prefix=jmap.prefix,
     )
+
+
+def _stack(columns: dict, names: list[str], where: str) -> np.ndarray:
+    """The named columns as one (rows, len(names)) float array, each column dropped from
+    ``columns`` once copied: a large table is never held twice."""
+    out = None
+    for k, name in enumerate(names):
+        values = _floats(columns[name], where, f"column {name!r}")
+        if out is None:
+            out = np.empty((len(values), len(names)))
+        out[:, k] = values
+        columns[name] = []
+    return out if out is not None else np.zeros((0, 0))
 
 
 def _group_key(value):

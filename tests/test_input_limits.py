@@ -56,7 +56,7 @@ def test_fifo_and_device_inputs_exit_2_without_being_opened(tmp_path, capsys, fi
         err = run_error(capsys, ["import", str(fifo(name)), "--out", out])
         assert "is a FIFO, not a regular file" in err
     err = run_error(capsys, ["import", "/dev/zero", "--out", out])
-    assert "is a device, not a regular file" in err
+    assert "is a character device, not a regular file" in err
     bag = tmp_path / "a.bag"
     bag.write_bytes(b"\0" * 4096)  # a sparse or zeroed file is not read into memory whole
     assert "does not start as a .bag file does" in run_error(
@@ -66,11 +66,11 @@ def test_fifo_and_device_inputs_exit_2_without_being_opened(tmp_path, capsys, fi
     err = run_error(capsys, ["import", str(bag), "--out", out, "--calibration", cal])
     assert "calibration file" in err and "FIFO" in err
     err = run_error(capsys, ["import", str(bag), "--out", out, "--calibration", "/dev/urandom"])
-    assert "calibration file /dev/urandom is a device" in err
+    assert "calibration file /dev/urandom is a character device" in err
     err = run_error(capsys, ["generate", "--config", str(fifo("c.toml")), "--out", out])
     assert "config file" in err and "FIFO" in err
     err = run_error(capsys, ["generate", "--config", "/dev/zero", "--out", out])
-    assert "config file /dev/zero is a device" in err
+    assert "config file /dev/zero is a character device" in err
     fifo("manifest.json")  # not taken for a dataset's manifest, never opened
     err = run_error(capsys, ["verify", "--data", str(tmp_path)])
     assert "neither a dataset nor a folder of grasp records" in err

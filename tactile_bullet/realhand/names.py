@@ -71,3 +71,25 @@ def check_topic(topic: str, what: str = "--topic") -> str:
             "_ (not starting with a digit), separated by single '/', e.g. /joint_states"
         )
     return topic
+
+
+def hand_prefix(names: Sequence[str]) -> str:
+    """The hand prefix ("rh") of the first Shadow joint among ``names``; "" for none."""
+    for name in names:
+        parts = split_name(name)
+        if parts is not None:
+            return parts[0].lower()
+    return ""
+
+
+def prefix_option(text: str | None) -> str | None:
+    """``--prefix rh_`` (or ``rh``) as the prefix names carry ("rh"); "none" for names
+    without one; None when not given (a recording must then hold one hand)."""
+    if text is None:
+        return None
+    value = text.strip().rstrip("_").lower()
+    if value.lower() == "none":
+        return ""
+    if not re.fullmatch(r"[A-Za-z][A-Za-z0-9]*", value):
+        raise UsageError(f"--prefix must be letters and digits like 'rh_', got {text!r}")
+    return value

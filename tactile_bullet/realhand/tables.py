@@ -16,7 +16,11 @@ from ..files import INPUT_LIMITS, input_path
 from ..hand import JOINT_NAMES
 from .calibration import Calibration
 from .joints import JointMap, JointSamples, _check_finite, _check_time
-from .names import LABEL_COLUMN, MARKER_COLUMN, NO_MARKER, TIME_COLUMN
+from .names import LABEL_COLUMN, MARKER_COLUMN, NO_MARKER, TIME_COLUMN, split_name
+
+MAX_TIME_S = 1e11
+"""Largest time (s) a table may hold: seconds since 1970 are ~1.7e9, so a value over this
+(about 3,000 years) is nanoseconds or microseconds since the epoch, not seconds."""
 
 # --- tables -------------------------------------------------------------------------------------
 
@@ -41,7 +45,14 @@ def _table_columns(path: Path, text: tuple = ()) -> dict[str, list | np.ndarray]
             table = pq.read_table(path)
         except Exception as exc:  # noqa: BLE001 - a damaged file is the user's input
             raise UsageError(f"{path} is not a readable Parquet file ({exc})") from None
-        return {name: table.column(name).to_pylist() for name in table.column_names}
+        _refuse_duplicates(table.column_names, path)
+        out = {}
+        for name, kind in zip(table.column_names, table.schema.types, strict=True):
+            values = table.column(name).to_pylist()
+            if pa_types_bool(kind):  # as text, so a joint column of them is refused, never 1.0 rad
+                values = [None if v is None else str(v).lower() for v in values]
+            out[name] = values
+        return out
     import csv
 
     try:
@@ -64,6 +75,9 @@ def _csv_columns(path: Path, reader, text: tuple) -> dict[str, list | np.ndarray
             break
     if header is None:
         raise UsageError(f"{path} is empty")
+    if header and header[0].startswith("\ufeff"):  # a byte-order mark (Excel's UTF-8 CSV)
+        header[0] = header[0][1:].strip()
+    _refuse_duplicates(header, path)
     blocks: list[list] = [[] for _ in header]
     read = True
     while read:
@@ -100,9 +114,27 @@ def _block_values(cells: tuple, keep_text: bool) -> list | np.ndarray:
     return list(cells)
 
 
+def _refuse_duplicates(names: list[str], path: Path) -> None:
+    """Two columns of one name: which one is meant cannot be known (the last would win)."""
+    seen: set[str] = set()
+    for name in names:
+        if name in seen:
+            raise UsageError(f"{path}: column {name!r} appears twice")
+        seen.add(name)
+
+
+def pa_types_bool(kind) -> bool:
+    import pyarrow as pa
+
+    return bool(pa.types.is_boolean(kind))
+
+
 def _floats(values: list | np.ndarray, where: str, what: str) -> np.ndarray:
     if isinstance(values, np.ndarray):
         return values
+    bad = next((v for v in values if isinstance(v, str) and "_" in v), None)
+    if bad is not None:  # Python's float() reads "1_0" as 10
+        raise UsageError(f"{where}: {what} holds {bad!r}, not a number")
     try:
         return np.array([float(v) if v not in ("", None) else math.nan for v in values], float)
     except (TypeError, ValueError):
@@ -123,8 +155,10 @@ def read_table(
     marker: str | None = None,
     calibration: Calibration | None = None,
     time_column: str = TIME_COLUMN,
+    prefix: str | None = None,
 ) -> JointSamples:
-    """Joint states of a CSV or Parquet table (see the module docstring for its columns)."""
+    """Joint states of a CSV or Parquet table (see the module docstring for its columns);
+    ``prefix`` ("rh") keeps one hand's columns of a table that holds two."""
     path = Path(path)
     where = str(path)
     input_path(path, "recording", INPUT_LIMITS["table"])
@@ -147,11 +181,23 @@ def read_table(
             effort_cols[name[: -len("_effort")]] = name
         else:
             joints.append(name)
+    if prefix is not None:
+        joints = [j for j in joints if (p := split_name(j)) is None or p[0].lower() == prefix]
+        effort_cols = {j: c for j, c in effort_cols.items() if j in joints}
+        if not joints:
+            shown = prefix + "_" if prefix else "(none)"
+            raise UsageError(f"{where}: no joint columns of hand prefix {shown!r}")
     unknown = [e for e in effort_cols if e not in joints]
     if unknown:
-        raise UsageError(f"{where}: effort columns for no position column: {', '.join(unknown)}")
+        shown = ", ".join(ascii(e + "_effort") for e in unknown)  # ascii: show odd characters
+        raise UsageError(f"{where}: effort columns without their position column: {shown}")
     jmap = JointMap(joints, calibration, where)
     time = _floats(columns[time_column], where, f"column {time_column!r}")
+    if time.size and np.nanmax(np.abs(time)) > MAX_TIME_S:
+        raise UsageError(
+            f"{where}: column {time_column!r} holds {np.nanmax(np.abs(time)):.6g}, too large "
+            "for seconds: nanoseconds? (divide by 1e9; time is in seconds)"
+        )
     _check_time(time, where)
     raw = _stack(columns, joints, where)
     missing = ~np.isfinite(raw)
@@ -177,7 +223,7 @@ def read_table(
         source=where,
         time=time - time[0],
         receive=time - time[0],
-        angles=jmap.positions(raw),
+        angles=jmap.positions(raw, time),
         efforts=efforts,
         has_efforts=has_eff,
         row_groups=groups,
@@ -202,7 +248,7 @@ def _stack(columns: dict, names: list[str], where: str) -> np.ndarray:
 
 def _group_key(value):
     """A marker cell as a grasp key; 0 (or empty) for rows between grasps."""
-    if value in ("", None):
+    if value in ("", None, "false"):
         return 0
     try:
         number = float(value)

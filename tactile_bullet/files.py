@@ -277,12 +277,15 @@ def check_npz_members(
     would decompress past ``member_limit`` bytes each (``total_limit`` together) before any
     is decompressed; the UsageError reads "``what`` <problem>". Both the zip's declared size
     and each array's own header (its shape times its item size) are checked: numpy allocates
-    what the header says, and a zip bomb declares small sizes and inflates to gigabytes."""
+    what the header says, and a zip bomb declares small sizes and inflates to gigabytes.
+    A source that is no zip archive at all is left to the loader, which says why."""
     import io
     import zipfile
 
     total_limit = member_limit * 64 if total_limit is None else total_limit
     src = io.BytesIO(source) if isinstance(source, bytes) else source
+    if not zipfile.is_zipfile(src):
+        return  # not an archive at all: the loader refuses it in its own words
     try:
         with zipfile.ZipFile(src) as zf:
             total = 0

@@ -25,6 +25,9 @@ def add_parser(sub) -> None:
     )
     add_force_flag(parser, "report files")
     parser.add_argument("--json", action="store_true", help="print one JSON document")
+    from .common import add_hand_calibration_flag
+
+    add_hand_calibration_flag(parser)
     parser.set_defaults(run=run)
 
 

@@ -54,6 +54,9 @@ def add_parser(sub) -> None:
     parser.add_argument("--seed", type=seed_number, default=0)
     parser.add_argument("--json", action="store_true", help="print one JSON document")
     add_recording_options(parser)
+    from .common import add_hand_calibration_flag
+
+    add_hand_calibration_flag(parser)
     parser.set_defaults(run=run)
 
 

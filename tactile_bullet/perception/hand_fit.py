@@ -158,8 +158,8 @@ def _alternate(measured, shapes, sizes, start: Calibration, strength: float, fir
         if k == 0 and first is not None:
             geometry = first
         else:
-            geometry = np.array([_geometry(m, s, z, cal)
-                                 for m, s, z in zip(measured, shapes, sizes, strict=True)])  # fmt: skip
+            rows = zip(measured, shapes, sizes, strict=True)
+            geometry = np.array([_geometry(m, s, z, cal) for m, s, z in rows])
         cal = _regress(geometry, measured, start, strength)
     return cal
 
@@ -176,12 +176,16 @@ def _held_out(measured, shapes, families, cal: Calibration) -> tuple[int, float]
 
 
 def _folds(shapes: Sequence[str], folds: int) -> np.ndarray:
-    """Fold index of each grasp: each shape's grasps dealt round-robin."""
-    out = np.zeros(len(shapes), dtype=int)
+    """Fold index of each grasp: the grasps ordered by their rank within their shape, then
+    dealt round-robin, so every fold holds a spread of shapes (one grasp per shape too)."""
     seen: dict[str, int] = {}
-    for i, s in enumerate(shapes):
-        out[i] = seen.get(s, 0) % folds
+    rank = []
+    for s in shapes:
+        rank.append(seen.get(s, 0))
         seen[s] = seen.get(s, 0) + 1
+    order = sorted(range(len(shapes)), key=lambda i: (rank[i], shapes[i]))
+    out = np.zeros(len(shapes), dtype=int)
+    out[order] = np.arange(len(shapes)) % folds
     return out
 
 
@@ -230,7 +234,7 @@ def fit_hand(
     start = load_calibration() if start is None else start
     counts = {s: shapes.count(s) for s in dict.fromkeys(shapes)}
     families = list(counts)
-    k = max(2, min(folds, max(counts.values())))
+    k = max(2, min(folds, len(shapes)))
     fold = _folds(shapes, k)
     first = np.array([_geometry(m, s, z, start) for m, s, z in zip(measured, shapes, resolved,
                                                                    strict=True)])  # fmt: skip
@@ -244,8 +248,8 @@ def fit_hand(
             cal = start
             if strength is not None and train.any():
                 idx = np.flatnonzero(train)
-                cal = _alternate(measured[idx], [shapes[i] for i in idx],
-                                 [resolved[i] for i in idx], start, strength, first[idx])  # fmt: skip
+                picked = [shapes[i] for i in idx], [resolved[i] for i in idx]
+                cal = _alternate(measured[idx], *picked, start, strength, first[idx])
             idx = np.flatnonzero(test)
             r, c = _held_out(measured[idx], [shapes[i] for i in idx], families, cal)
             right, cost = right + r, cost + c * len(idx)

@@ -29,6 +29,11 @@ def add_parser(sub) -> None:
         "--sizes", metavar="FILE.toml",
         help="known sizes (m) of the calibration objects, a [shape] table each",
     )  # fmt: skip
+    parser.add_argument(
+        "--zeroed", action="store_true",
+        help="fit the angles zeroed on the open hand, as robust-joints gives them to the shape "
+        "fit (use this file with robust-joints models; without it, with raw-joints ones)",
+    )  # fmt: skip
     parser.add_argument("--json", action="store_true", help="print one JSON document")
     add_force_flag(parser, "hand calibration")
     parser.set_defaults(run=run)
@@ -51,13 +56,18 @@ def run(args: argparse.Namespace) -> int:
         if name not in shapes:
             raise UsageError(f"--sizes names {name!r}, but no grasp of {args.data} is one")
     known = [sizes.get(s) for s in shapes]
+    if args.zeroed:
+        from ..learn.robust import zeroed
+
+        usable = [zeroed(r) for r in usable]
     angles = [r.fci_angles() for r in usable]
     check_inputs(angles, shapes, known)
     prefixes = {hand_prefix(r.joint_names) for r in usable}
     if len(prefixes) > 1:
         raise UsageError(f"{args.data} mixes hands ({', '.join(sorted(prefixes))}): calibrate one")
     hand = fit_hand(angles, shapes, known if sizes else None)
-    report = {**hand.report, "skipped_no_contact": len(records) - len(usable)}
+    report = {**hand.report, "angles": "zeroed" if args.zeroed else "raw",
+              "skipped_no_contact": len(records) - len(usable)}  # fmt: skip
     text = render(hand.calibration, prefixes.pop(), str(args.data), hand.grasps_per_shape, report)
     write(out, text)
     doc = {"out": str(out), "grasps_per_shape": hand.grasps_per_shape,

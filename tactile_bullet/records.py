@@ -104,6 +104,10 @@ class ControllerSettings:
     phalanx_scale: float = 1.0
     """Length factor of every finger's and the thumb's phalanges (joint spacing and link
     geometry): 1.03 is another hand of the same model with 3% longer fingers."""
+    engine: str = "bullet"
+    """The physics engine (``sim/engines/``, the ``register_engines`` hook): ``bullet`` or
+    ``mujoco`` built in. Left out of saved records while ``bullet``, so older records and
+    datasets stay byte-identical and resumable."""
 
     def __post_init__(self) -> None:
         if self.mode not in ("torque", "contact"):
@@ -136,6 +140,8 @@ class ControllerSettings:
                 f"controller timestep must be at most 0.01 s and sample_rate at most one "
                 f"sample per step, got {self.timestep!r} s and {self.sample_rate!r} Hz"
             )
+        if not isinstance(self.engine, str) or not self.engine:
+            raise UsageError(f"controller engine must be an engine name, got {self.engine!r}")
         scale = self.phalanx_scale
         if isinstance(scale, bool) or not isinstance(scale, int | float) or not 0.8 <= scale <= 1.2:
             raise UsageError(f"controller phalanx_scale must be from 0.8 to 1.2, got {scale!r}")
@@ -145,6 +151,7 @@ PHYSICS_DEFAULTS: dict[str, float | bool] = {
     "friction": 0.8,
     "phalanx_scale": 1.0,
     "early_stop": False,
+    "engine": "bullet",
 }
 """Fields of ControllerSettings added after records were first written (physics knobs and
 the early grasp end): left out of the saved form while at these values, so older records,

@@ -28,13 +28,9 @@ from tactile_bullet.sim.grasp import simulate_grasp
 CEILING_STEPS = 240
 
 
-def bare_step_rate(scene) -> float:
-    """Steps/s of Bullet alone with the hand closed on the object (contacts included)."""
-    client = scene.client
-    start = time.perf_counter()
-    for _ in range(CEILING_STEPS):
-        client.stepSimulation()
-    return CEILING_STEPS / (time.perf_counter() - start)
+def bare_step_rate(engine) -> float:
+    """Controller ticks/s of the engine alone with the hand closed on the object."""
+    return engine.bare_step_rate(CEILING_STEPS)
 
 
 def bench(shape, mode: str, repeat: int, preshape: bool = False) -> dict:

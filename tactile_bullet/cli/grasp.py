@@ -92,10 +92,9 @@ def run(args: argparse.Namespace) -> int:
     shape = mesh_shape(args) or resolve_shape(args.shape)
     hook = None
     if "snapshot" in outputs:
-        from ..sim.render import snapshot
 
-        def hook(scene):
-            snapshot(scene, outputs["snapshot"])
+        def hook(engine):
+            engine.snapshot(outputs["snapshot"])
 
     record, wall = timed_grasp(
         shape, params, pose, controller, args.seed, gui=args.gui, scene_hook=hook

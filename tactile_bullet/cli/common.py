@@ -89,6 +89,28 @@ def add_force_flag(parser, what: str) -> None:
     )
 
 
+def add_engine_flag(parser) -> None:
+    """``--engine NAME``: which physics engine simulates the grasps (default: the sweep's or
+    the controller's, ``bullet``)."""
+    parser.add_argument(
+        "--engine", metavar="NAME",
+        help="physics engine: bullet (default) or mujoco (pip install 'tactile-bullet[mujoco]'), "
+        "or one a plugin registers",
+    )  # fmt: skip
+
+
+def engine_name(args: argparse.Namespace) -> str | None:
+    """The ``--engine`` asked for, checked before any work (unknown or not installed: a
+    UsageError naming the installed ones or how to install it); None when not given."""
+    name = getattr(args, "engine", None)
+    if name is None:
+        return None
+    from ..plugins import get_engine
+
+    get_engine(name)
+    return name
+
+
 def output_files(paths: Mapping[str, str | None], force: bool) -> dict[str, Path]:
     """Check every output file of a command before any work: writable, not already there
     (unless ``force``), and no two flags naming the same file (the second would silently

@@ -7,8 +7,10 @@ import math
 
 from ..errors import UsageError
 from .common import (
+    add_engine_flag,
     add_force_flag,
     emit_json,
+    engine_name,
     image_file,
     output_files,
     parse_key_values,
@@ -55,6 +57,7 @@ def add_parser(sub) -> None:
         help="stop closing a finger once the dynamic detector finds it out of contact "
         "(fewer steps when a finger misses the object)",
     )  # fmt: skip
+    add_engine_flag(parser)
     parser.add_argument("--seed", type=seed_number, default=0)
     parser.add_argument("--out", help="write the GraspRecord to this .npz file")
     parser.add_argument("--snapshot", help="render the grasp to this PNG (CPU renderer)")
@@ -69,6 +72,8 @@ def _controller(args):
     from ..records import ControllerSettings
 
     overrides = {"mode": args.mode, "preshape": args.preshape, "early_stop": args.early_stop}
+    if (engine := engine_name(args)) is not None:
+        overrides["engine"] = engine
     for key, value in (("delta", args.delta), ("thres_t", args.thres), ("max_time", args.max_time)):
         if value is not None:
             overrides[key] = value
@@ -115,6 +120,7 @@ def run(args: argparse.Namespace) -> int:
         "params": dict(record.params),
         "pose": {"offset": list(pose.offset), "rotation_deg": math.degrees(pose.rotation)},
         "mode": controller.mode,
+        "engine": controller.engine,
         "fingers_in_contact": list(record.fingers_in_contact),
         "joint_angles": record.final_dict(),
         "sim_time_s": record.sim_time_s,

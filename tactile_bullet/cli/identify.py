@@ -7,7 +7,9 @@ import math
 
 from ..errors import UsageError
 from .common import (
+    add_engine_flag,
     emit_json,
+    engine_name,
     parse_key_values,
     parse_number,
     parse_offset,
@@ -44,6 +46,7 @@ def add_parser(sub) -> None:
         "--rotation", default="0", metavar="DEG", help="object rotation about the palm normal"
     )
     parser.add_argument("--seed", type=seed_number, default=0)
+    add_engine_flag(parser)
     parser.add_argument("--json", action="store_true", help="print one JSON document")
     add_recording_options(parser)
     parser.set_defaults(run=run)
@@ -51,19 +54,20 @@ def add_parser(sub) -> None:
 
 def _record(args: argparse.Namespace):
     if args.record:
-        if args.param or args.offset != "0,0,0" or args.rotation != "0":
+        if args.param or args.offset != "0,0,0" or args.rotation != "0" or args.engine:
             raise UsageError(
-                "--param, --offset and --rotation describe a new grasp: not with --record"
+                "--param, --offset, --rotation and --engine describe a new grasp: not with --record"
             )
         from ..records import load_record
 
         return load_record(args.record)
-    from ..records import Pose
+    from ..records import ControllerSettings, Pose
     from ..sim.grasp import simulate_grasp
 
     params = {k: parse_number(v, f"--param {k}") for k, v in parse_key_values(args.param).items()}
     pose = Pose(parse_offset(args.offset), parse_rotation(args.rotation))
-    return simulate_grasp(mesh_shape(args) or args.shape, params, pose, seed=args.seed)
+    controller = ControllerSettings(engine=engine_name(args) or "bullet")
+    return simulate_grasp(mesh_shape(args) or args.shape, params, pose, controller, seed=args.seed)
 
 
 def run(args: argparse.Namespace) -> int:

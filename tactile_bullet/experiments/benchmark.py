@@ -176,9 +176,11 @@ def run_benchmark(
     cache: str | os.PathLike | None = None,
     show: bool = False,
     log: Callable[[str], None] | None = None,
+    engine: str = "bullet",
 ) -> dict[str, Any]:
     """Run the benchmark (module doc); returns the ``benchmark.json`` document. ``quick``:
-    True/False (the --quick flag) or a scale name of ``protocols.SCALES``."""
+    True/False (the --quick flag) or a scale name of ``protocols.SCALES``; ``engine`` simulates
+    the single-engine protocols' sets (the cross-engine ones use both)."""
     from ..learn.robust import augment
     from ..plugins import compatible, get_classifier, get_descriptor
     from .reports import write_json, write_text_atomic
@@ -199,10 +201,10 @@ def run_benchmark(
     config = {
         "protocols": names, "descriptors": descriptors, "classifiers": classifiers,
         "trainings": trainings, "scale": scale, "seed": int(seed),
-    }  # fmt: skip
+    } | ({"engine": engine} if engine != "bullet" else {})  # fmt: skip
     prepare_out(out, config)
-    table = P.protocols(scale)
-    specs = P.needed_sets(names, scale)
+    table = P.protocols(scale, engine)
+    specs = P.needed_sets(names, scale, engine)
     simulate_sets(specs, cache_dir, int(workers), show, say)
 
     sets: dict[str, list[GraspRecord]] = {}
@@ -217,7 +219,7 @@ def run_benchmark(
     def train_features(train_set: str, training: str, desc: str) -> tuple[np.ndarray, np.ndarray]:
         key = (train_set, training, desc)
         if key not in features:
-            records = sets[train_set]
+            records = [r for name in P.train_sets(train_set) for r in sets[name]]
             if training == "noise-aware":
                 records = augment(records, seed=seed)
             features[key] = np.asarray(descs[desc].transform(records), float)
@@ -239,9 +241,10 @@ def run_benchmark(
                 if not compatible(desc, clf):
                     continue
                 for training in trainings:
-                    key = (protocol.train, training, desc, clf)
+                    train_set = level.train or protocol.train
+                    key = (train_set, training, desc, clf)
                     if key not in fitted:
-                        x, y = train_features(protocol.train, training, desc)
+                        x, y = train_features(train_set, training, desc)
                         fitted[key] = get_classifier(clf).fit(x, y)
                     accuracy = None
                     if x_test is not None:

@@ -10,7 +10,15 @@ import time
 from pathlib import Path
 
 from ..errors import UsageError
-from .common import MAX_WORKERS, count, emit_json, seed_number, show_progress
+from .common import (
+    MAX_WORKERS,
+    add_engine_flag,
+    count,
+    emit_json,
+    engine_name,
+    seed_number,
+    show_progress,
+)
 
 MAX_SHARD_SIZE = 4096
 """A shard's records wait in memory until its block is whole: bounded, so a typo cannot
@@ -42,6 +50,7 @@ def add_parser(sub) -> None:
         "--shard-size", type=count(1, MAX_SHARD_SIZE), default=None,
         help="grasps per shard (default 32; on --resume, the dataset's own)",
     )  # fmt: skip
+    add_engine_flag(parser)
     parser.add_argument("--json", action="store_true", help="print one JSON document")
     parser.set_defaults(run=run)
 
@@ -102,9 +111,12 @@ def run(args: argparse.Namespace) -> int:
     import contextlib
 
     from ..datasets.generate import generate
-    from ..datasets.sweeps import Sweep, preset
+    from ..datasets.sweeps import Sweep, preset, with_engine
 
+    engine = engine_name(args)
     sweep = preset(args.preset) if args.preset else Sweep.from_toml(args.config)
+    if engine is not None:
+        sweep = with_engine(sweep, engine)
     if args.cluster and args.workers != 1:
         raise UsageError("--workers applies to local runs; a cluster has its own workers")
     lines = ProgressLines(args.out) if not sys.stderr.isatty() else contextlib.nullcontext()

@@ -31,7 +31,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass, field, fields
+from dataclasses import dataclass, field, fields, replace
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -61,7 +61,7 @@ such as ``samples = 1000000000`` or a grid of 1e12 points is refused before anyt
 allocated (:meth:`Sweep.size`). Split larger collections into several datasets."""
 
 SHAPE_KEYS = ("name", "params", "offset_x", "offset_y", "offset_z", "rotation_deg", "samples")
-SWEEP_KEYS = ("name", "mode", "samples", "controller", "shapes", "objects")
+SWEEP_KEYS = ("name", "mode", "samples", "controller", "shapes", "objects", "engine")
 POSE_KEYS = ("offset_x", "offset_y", "offset_z", "rotation_deg", "samples")
 
 
@@ -135,12 +135,23 @@ class Sweep:
         controller_data = data.get("controller", {})
         if not isinstance(controller_data, Mapping):
             raise UsageError(f"{source}: [controller] must be a table")
+        if "engine" in data:  # top-level shorthand of [controller] engine
+            if controller_data.get("engine", data["engine"]) != data["engine"]:
+                raise UsageError(f"{source}: engine and [controller] engine disagree")
+            controller_data = {**controller_data, "engine": data["engine"]}
         known = {f.name for f in fields(ControllerSettings)}
         _no_unknown(controller_data, tuple(known), f"{source}: [controller]")
         try:
             controller = ControllerSettings(**controller_data)
         except (TypeError, ValueError) as exc:  # UsageError is a ValueError
             raise UsageError(f"{source}: [controller] {exc}") from None
+        if controller.engine != "bullet":
+            from ..plugins import get_engine
+
+            try:
+                get_engine(controller.engine)  # unknown or not installed: before any grasp
+            except UsageError as exc:
+                raise UsageError(f"{source}: {exc}") from None
         shapes_data = data.get("shapes", [])
         objects_data = data.get("objects", [])
         if not isinstance(shapes_data, list) or not isinstance(objects_data, list):
@@ -387,6 +398,11 @@ PRESETS = {
     "smoke": _smoke,
     "temporal": _temporal,
 }
+
+
+def with_engine(sweep: Sweep, engine: str) -> Sweep:
+    """The sweep simulated with another physics engine (``generate --engine``)."""
+    return replace(sweep, controller=replace(sweep.controller, engine=engine))
 
 
 def preset(name: str) -> Sweep:

@@ -18,7 +18,7 @@ import numpy as np
 
 from ..datasets.bulk import GraspSpec, check_record_folder, save_records, simulate_many
 from ..errors import UsageError
-from ..records import GraspRecord, Pose
+from ..records import ControllerSettings, GraspRecord, Pose
 
 DEMO_SHAPES: tuple[str, ...] = ("cone", "torus", "sphere", "hyperboloid", "cylinder")
 """The thesis' five test shapes."""
@@ -358,6 +358,7 @@ def draw_specs(
     fractions: Sequence[float],
     offsets: Sequence[tuple[float, float, float]],
     rng: np.random.Generator,
+    controller: ControllerSettings | None = None,
 ) -> list[GraspSpec]:
     """``n`` grasps of a built-in shape, each parameter at a relative size drawn from
     ``fractions`` of its valid range, at an offset drawn from ``offsets``; combinations the
@@ -380,7 +381,8 @@ def draw_specs(
         else:  # pragma: no cover - every built-in shape has valid combinations
             raise UsageError(f"no valid size of {shape} among the demo's fractions")
         offset = offsets[int(rng.integers(len(offsets)))]
-        out.append(GraspSpec(shape, values, Pose(offset), int(rng.integers(2**31 - 1))))
+        seed = int(rng.integers(2**31 - 1))
+        out.append(GraspSpec(shape, values, Pose(offset), seed, controller))
     return out
 
 
@@ -405,6 +407,7 @@ def simulate_set(
     desc: str = "grasps",
     shapes: Sequence[str] = DEMO_SHAPES,
     rounds: int = 3,
+    controller: ControllerSettings | None = None,
 ) -> SimulatedSet:
     """``per_shape`` usable grasps of each shape where possible: a refused pose or a grasp
     without contact is replaced by a fresh draw, for up to ``rounds`` rounds, so every shape
@@ -415,7 +418,9 @@ def simulate_set(
     no_contact = 0
     for _ in range(rounds):
         specs = [
-            s for name, n in wanted.items() for s in draw_specs(name, n, fractions, offsets, rng)
+            s
+            for name, n in wanted.items()
+            for s in draw_specs(name, n, fractions, offsets, rng, controller)
         ]
         if not specs:
             break
@@ -440,6 +445,7 @@ def demo(
     show: bool = False,
     log: Callable[[str], None] | None = None,
     force: bool = False,
+    engine: str = "bullet",
 ) -> dict[str, Any]:
     """The first thing to run: simulate a training set and a held-out test set of the five
     thesis shapes (test sizes and offsets never seen in training), train signature + SVM,
@@ -476,13 +482,16 @@ def demo(
     started = time.perf_counter()
     rng = np.random.default_rng(seed)
     say(f"simulating {len(DEMO_SHAPES) * train_per_shape} training grasps ({workers} workers)")
+    ctl = ControllerSettings(engine=engine)
     train_set = simulate_set(
-        train_per_shape, TRAIN_FRACTIONS, TRAIN_OFFSETS, rng, workers, show, "train grasps"
-    )
+        train_per_shape, TRAIN_FRACTIONS, TRAIN_OFFSETS, rng, workers, show, "train grasps",
+        controller=ctl,
+    )  # fmt: skip
     say(f"simulated {len(train_set.records)} training grasps; now the test set at unseen sizes")
     test_set = simulate_set(
-        test_per_shape, TEST_FRACTIONS, TEST_OFFSETS, rng, workers, show, "test grasps"
-    )
+        test_per_shape, TEST_FRACTIONS, TEST_OFFSETS, rng, workers, show, "test grasps",
+        controller=ctl,
+    )  # fmt: skip
     train_records, test_records = train_set.records, test_set.records
     sim_time = time.perf_counter() - started
     if len({r.shape for r in train_records}) < 2 or not test_records:

@@ -55,6 +55,8 @@ def verify_text(doc: dict) -> str:
     else:
         head = f"{doc['data']}: the manifest cannot be read"
     lines = [f"{head}: {'sound' if doc['ok'] else 'DAMAGED'}"]
+    if len(doc.get("engines", ())) > 1:
+        lines.append(f"  mixes physics engines: {', '.join(doc['engines'])}")
     for p in doc["problems"]:
         lost = f" ({p['records']} records)" if p["records"] else ""
         lines.append(f"  {p['file']}: {p['problem']}{lost}")

@@ -1,16 +1,17 @@
-"""Benchmark: grasps per second per core, against Bullet's own ceiling.
+"""Benchmark: grasps per second per core, against each engine's own ceiling.
 
-For each shape and controller mode, on one core (this process):
+For each engine, shape and controller mode, on one core (this process):
 - grasps/s: full simulate_grasp calls (scene build, Algorithm 1, record), best of --repeat;
 - steps/grasp: physics steps Algorithm 1 needed;
-- ceiling: Bullet's bare step rate with the hand holding that object (stepSimulation in a loop,
-  no Python work between steps) divided by steps/grasp: the most any controller written
+- ceiling: the engine's bare tick rate with the hand holding that object (its stepping in a
+  loop, no Python work between ticks) divided by steps/grasp: the most any controller written
   around these steps could reach;
 - ratio = grasps/s / ceiling;
 - peak RSS of this process.
 
     python tools/bench_grasp.py [--repeat 3] [--shapes cone,sphere] [--modes torque]
     python tools/bench_grasp.py --preshape   # fingers start 5 mm from the object (opt-in)
+    python tools/bench_grasp.py --engine bullet,mujoco   # side by side, with the speed-up
 """
 
 from __future__ import annotations
@@ -33,8 +34,8 @@ def bare_step_rate(engine) -> float:
     return engine.bare_step_rate(CEILING_STEPS)
 
 
-def bench(shape, mode: str, repeat: int, preshape: bool = False) -> dict:
-    ctl = ControllerSettings(mode=mode, preshape=preshape)
+def bench(shape, mode: str, repeat: int, preshape: bool = False, engine: str = "bullet") -> dict:
+    ctl = ControllerSettings(mode=mode, preshape=preshape, engine=engine)
     walls, rates = [], []
     record = None
     for _ in range(repeat):
@@ -45,6 +46,7 @@ def bench(shape, mode: str, repeat: int, preshape: bool = False) -> dict:
     gps = 1.0 / min(walls)
     ceiling = rates[0] / record.steps
     return {
+        "engine": engine,
         "shape": shape.name,
         "mode": mode,
         "grasps_per_s": gps,
@@ -61,29 +63,39 @@ def main() -> None:
     parser.add_argument("--repeat", type=int, default=3)
     parser.add_argument("--shapes", default=",".join(s.name for s in BUILTIN_SHAPES))
     parser.add_argument("--modes", default="torque,contact")
+    parser.add_argument("--engine", default="bullet", help="engines, comma-separated")
     parser.add_argument(
         "--preshape", action="store_true",
         help="start the fingers 5 mm from the object (ControllerSettings.preshape)",
     )  # fmt: skip
     args = parser.parse_args()
     table = {s.name: s for s in BUILTIN_SHAPES}
+    engines = args.engine.split(",")
     rows = []
-    print(f"{'shape':<18}{'mode':<8}{'grasps/s':>9}{'steps':>7}{'bare st/s':>10}"
+    print(f"{'engine':<8}{'shape':<18}{'mode':<8}{'grasps/s':>9}{'steps':>7}{'bare st/s':>10}"
           f"{'ceiling':>9}{'ratio':>7}  fingers")  # fmt: skip
     for name in args.shapes.split(","):
         for mode in args.modes.split(","):
-            row = bench(table[name], mode, args.repeat, args.preshape)
-            rows.append(row)
-            print(f"{row['shape']:<18}{row['mode']:<8}{row['grasps_per_s']:>9.2f}{row['steps']:>7}"
-                  f"{row['bare_steps_per_s']:>10.0f}{row['ceiling_grasps_per_s']:>9.2f}"
-                  f"{row['ratio']:>7.2f}  {row['fingers']}")  # fmt: skip
+            for engine in engines:  # side by side: the machine's load hits both alike
+                row = bench(table[name], mode, args.repeat, args.preshape, engine)
+                rows.append(row)
+                print(f"{engine:<8}{row['shape']:<18}{row['mode']:<8}"
+                      f"{row['grasps_per_s']:>9.2f}{row['steps']:>7}"
+                      f"{row['bare_steps_per_s']:>10.0f}{row['ceiling_grasps_per_s']:>9.2f}"
+                      f"{row['ratio']:>7.2f}  {row['fingers']}", flush=True)  # fmt: skip
     for mode in args.modes.split(","):
-        sel = [r for r in rows if r["mode"] == mode]
-        gps = np.mean([r["grasps_per_s"] for r in sel])
-        ratio = np.mean([r["ratio"] for r in sel])
-        steps = np.mean([r["steps"] for r in sel])
-        print(f"mean {mode}: {gps:.2f} grasps/s per core, {steps:.0f} steps/grasp, "
-              f"{ratio:.2f} of the ceiling")  # fmt: skip
+        means = {}
+        for engine in engines:
+            sel = [r for r in rows if r["mode"] == mode and r["engine"] == engine]
+            means[engine] = gps = np.mean([r["grasps_per_s"] for r in sel])
+            ratio = np.mean([r["ratio"] for r in sel])
+            steps = np.mean([r["steps"] for r in sel])
+            bare = np.mean([r["bare_steps_per_s"] for r in sel])
+            print(f"mean {engine} {mode}: {gps:.2f} grasps/s per core, {steps:.0f} steps/grasp, "
+                  f"{bare:.0f} bare ticks/s closed, {ratio:.2f} of the ceiling")  # fmt: skip
+        for engine in engines[1:]:
+            print(f"{engine} / {engines[0]} {mode}: {means[engine] / means[engines[0]]:.1f}x "
+                  "grasps/s per core")
     peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
     print(f"peak memory of this simulation process: {peak:.0f} MiB")
 

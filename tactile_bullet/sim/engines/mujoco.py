@@ -133,7 +133,7 @@ class MujocoEngine(Engine):
             driving.append(j2)
         self._targets = np.zeros(n + 1)
         self._forces = np.zeros(n)
-        self._sent_forces = np.zeros(0)
+        self._sent_forces = b""
         self._drive_cols = np.array(driving)
         self._drive_acts = self._act[self._drive_cols]
         body_of = m.geom_bodyid
@@ -173,8 +173,9 @@ class MujocoEngine(Engine):
         t, dc = self._targets, self._drive_cols
         self.data.ctrl[self._drive_acts] = t[dc] + t[self._pair[dc]]
         f = self._forces[dc]
-        if not np.array_equal(f, self._sent_forces):  # they change a few times a grasp
-            self._sent_forces = f
+        sent = f.tobytes()
+        if sent != self._sent_forces:  # they change a few times a grasp
+            self._sent_forces = sent
             self.model.actuator_forcerange[self._drive_acts, 0] = -f
             self.model.actuator_forcerange[self._drive_acts, 1] = f
 

@@ -10,15 +10,21 @@ is :data:`SUBSTEPS` MuJoCo steps taken in one call.
 
 from __future__ import annotations
 
+import copy
 import functools
+import math
 import time
+from collections import OrderedDict
 from collections.abc import Mapping, Sequence
 from pathlib import Path
+from types import SimpleNamespace
+from typing import NamedTuple
 
 import numpy as np
 
 from ...errors import UsageError
 from ...hand import FINGER_LINKS, JOINT_NAMES, LONG_FINGERS
+from ...objects.placement import object_position
 from ...objects.shapes import Shape
 from ...records import ControllerSettings, Pose
 from .base import Contact, Engine
@@ -43,12 +49,6 @@ def _hand_xml(path: str) -> str:
     return Path(path).read_text()
 
 
-def _quat_wxyz(orientation: Sequence[float]) -> list[float]:
-    """PyBullet's (x, y, z, w) as MuJoCo's (w, x, y, z)."""
-    x, y, z, w = orientation
-    return [w, x, y, z]
-
-
 class MujocoEngine(Engine):
     """Algorithm 1's view of one MuJoCo model: the hand plus one static object."""
 
@@ -68,34 +68,21 @@ class MujocoEngine(Engine):
     ) -> None:
         import mujoco
 
-        from ..scene import place_object
-
         if gui:
             raise UsageError("--gui shows PyBullet's window: use it with --engine bullet")
         self._mj = mujoco
-        path = Path(hand_model) if hand_model else mjcf_path()
-        spec = mujoco.MjSpec.from_string(_hand_xml(str(path)))
-        if controller.phalanx_scale != 1.0:
-            _scale_phalanges(spec, controller.phalanx_scale)
-        spec.option.timestep = controller.timestep / SUBSTEPS
-        placement = place_object(shape, params, pose)
-        body = spec.worldbody.add_body(
-            name=OBJECT_BODY, pos=list(placement.position),
-            quat=_quat_wxyz(placement.orientation),
-        )  # fmt: skip
-        for k, geom in enumerate(object_geoms(shape, params)):
-            extra = {"contype": 0, "conaffinity": 1, "condim": 3}
-            if geom.kind == "mesh":
-                spec.add_mesh(name=f"object{k}", uservert=np.asarray(geom.vertices).ravel())
-                body.add_geom(type=mujoco.mjtGeom.mjGEOM_MESH, meshname=f"object{k}", **extra)
-            else:
-                kind = getattr(mujoco.mjtGeom, f"mjGEOM_{geom.kind.upper()}")
-                size = [*geom.size, 0.0, 0.0][:3]
-                body.add_geom(type=kind, size=size, quat=list(geom.quat), **extra)
-        self.model = m = spec.compile()
-        self.data = mujoco.MjData(m)
+        proto = _prototype(shape, params, controller, hand_model)
+        self.__dict__.update(proto.index)
+        self.model = m = copy.copy(proto.model)  # the grasp changes force limits: a copy
+        m.body_pos[self._object_body] = object_position(shape, params, pose)
+        half = pose.rotation / 2  # about the palm normal (y), as the bullet engine turns it
+        m.body_quat[self._object_body] = (math.cos(half), 0.0, math.sin(half), 0.0)
         m.geom_friction[:, 0] = controller.friction
-        self._index(m)
+        n = len(JOINT_NAMES)
+        self._targets = np.zeros(n + 1)  # column n stays 0: the pair of unpaired actuators
+        self._forces = np.zeros(n)
+        self._sent_forces = b""
+        self.data = mujoco.MjData(m)
         mujoco.mj_forward(m, self.data)
 
     # --- indexing -------------------------------------------------------------------------
@@ -131,9 +118,6 @@ class MujocoEngine(Engine):
             self._act[j2] = self._act[j1] = a
             self._pair[j2] = j1  # the tendon's target: J2's + J1's
             driving.append(j2)
-        self._targets = np.zeros(n + 1)
-        self._forces = np.zeros(n)
-        self._sent_forces = b""
         self._drive_cols = np.array(driving)
         self._drive_acts = self._act[self._drive_cols]
         body_of = m.geom_bodyid
@@ -283,6 +267,60 @@ class MujocoEngine(Engine):
 
     def close(self) -> None:
         self.model = self.data = None
+
+
+class _Prototype(NamedTuple):
+    shape: object  # held so its id is not reused while cached
+    model: object
+    index: dict
+
+
+_PROTOTYPES: OrderedDict[tuple, _Prototype] = OrderedDict()
+PROTOTYPES_KEPT = 8
+"""Compiled models kept per process: a dataset grasps each size at several poses, and the pose
+is only the object body's position and orientation, set on a copy (compiling a torus's 24
+convex pieces takes ~40 ms, a grasp ~100 ms)."""
+
+
+def clear_compiled() -> None:
+    """Forget the compiled models (benchmarks time a grasp on a size never seen)."""
+    _PROTOTYPES.clear()
+
+
+def _prototype(shape, params, controller, hand_model) -> _Prototype:
+    """The compiled hand + object (at the origin) and its indices, made once per shape, sizes,
+    hand and timestep."""
+    key = (id(shape), shape.name, tuple(sorted(params.items())), float(controller.timestep),
+           float(controller.phalanx_scale), str(hand_model))  # fmt: skip
+    found = _PROTOTYPES.get(key)
+    if found is not None and found.shape is shape:
+        _PROTOTYPES.move_to_end(key)
+        return found
+    import mujoco
+
+    path = Path(hand_model) if hand_model else mjcf_path()
+    spec = mujoco.MjSpec.from_string(_hand_xml(str(path)))
+    if controller.phalanx_scale != 1.0:
+        _scale_phalanges(spec, controller.phalanx_scale)
+    spec.option.timestep = controller.timestep / SUBSTEPS
+    body = spec.worldbody.add_body(name=OBJECT_BODY)
+    for k, geom in enumerate(object_geoms(shape, params)):
+        extra = {"contype": 0, "conaffinity": 1, "condim": 3}
+        if geom.kind == "mesh":
+            spec.add_mesh(name=f"object{k}", uservert=np.asarray(geom.vertices).ravel())
+            body.add_geom(type=mujoco.mjtGeom.mjGEOM_MESH, meshname=f"object{k}", **extra)
+        else:
+            kind = getattr(mujoco.mjtGeom, f"mjGEOM_{geom.kind.upper()}")
+            size = [*geom.size, 0.0, 0.0][:3]
+            body.add_geom(type=kind, size=size, quat=list(geom.quat), **extra)
+    model = spec.compile()
+    holder = SimpleNamespace(_mj=mujoco)
+    MujocoEngine._index(holder, model)
+    proto = _Prototype(shape, model, vars(holder))
+    _PROTOTYPES[key] = proto
+    while len(_PROTOTYPES) > PROTOTYPES_KEPT:
+        _PROTOTYPES.popitem(last=False)
+    return proto
 
 
 def _scale_phalanges(spec, scale: float) -> None:

@@ -139,3 +139,76 @@ def test_verify_says_when_records_mix_engines(tmp_path, capsys):
         save_record(simulate_grasp("sphere", None, Pose(), ctl), tmp_path / f"{engine}.npz")
     assert main(["verify", "--data", str(tmp_path)]) == 0
     assert "mixes physics engines: bullet, mujoco" in capsys.readouterr().out
+
+
+def _prefixed_hand(tmp_path, wrist: bool = False) -> Path:
+    """The project's MJCF as another model would name it (``rh_`` prefixes, as the MuJoCo
+    Menagerie's); with ``wrist``, mounted on a turned, offset forearm with two wrist joints."""
+    import re
+
+    text = (REPO / "urdf" / "shadow_hand.xml").read_text()
+    text = re.sub(
+        r'(name|joint|tendon)="([^"]+)"',
+        lambda m: m.group(0) if m.group(2) in ("grey", "dark", "skin")
+        else f'{m.group(1)}="rh_{m.group(2)}"',
+        text,
+    )  # fmt: skip
+    if wrist:
+        inertial = '<inertial pos="0 0 0" mass="0.5" diaginertia="1e-3 1e-3 1e-3"/>'
+        text = text.replace(
+            '<body name="rh_palm">',
+            '<body name="rh_forearm" pos="0.1 0.2 0.3" quat="0.9238795 0 0 0.3826834">'
+            f'{inertial}<joint name="rh_WRJ2" axis="0 1 0" range="-0.5 0.2"/>'
+            f'<body name="rh_wrist" pos="0 0 0.01">{inertial}'
+            '<joint name="rh_WRJ1" axis="1 0 0" range="-0.6 0.4"/>'
+            '<body name="rh_palm" pos="0 0 0.02">',
+            1,
+        )
+        text = text.replace("  </worldbody>", "  </body></body></worldbody>", 1)
+        text = text.replace(
+            "  <actuator>", '  <actuator>\n    <position name="rh_A_WRJ2" joint="rh_WRJ2"/>', 1
+        )
+    path = tmp_path / ("wrist.xml" if wrist else "rh.xml")
+    path.write_text(text)
+    return path
+
+
+def test_hand_model_is_found_by_shadow_names_and_grasps_as_the_own_model(tmp_path):
+    from tactile_bullet.sim.grasp import simulate_grasp
+
+    own = simulate_grasp("cylinder", None, Pose(), ControllerSettings(engine="mujoco"))
+    ctl = ControllerSettings(engine="mujoco", hand_model=str(_prefixed_hand(tmp_path)))
+    other = simulate_grasp("cylinder", None, Pose(), ctl)
+    assert np.array_equal(own.final_angles, other.final_angles)
+    assert other.metadata()["controller"]["hand_model"].endswith("rh.xml")
+
+
+def test_hand_model_on_a_turned_forearm_has_its_wrist_welded_and_palm_frame_kept(tmp_path):
+    """The object is placed, and contacts reported, in the model's palm frame: a hand mounted
+    elsewhere grasps the same way (up to gravity's other direction)."""
+    from tactile_bullet.sim.grasp import simulate_grasp
+
+    ctl = ControllerSettings(engine="mujoco", mode="contact")
+    own = simulate_grasp("cylinder", None, Pose(), ctl)
+    moved = ControllerSettings(engine="mujoco", mode="contact",
+                               hand_model=str(_prefixed_hand(tmp_path, wrist=True)))  # fmt: skip
+    other = simulate_grasp("cylinder", None, Pose(), moved)
+    assert other.fingers_in_contact == own.fingers_in_contact
+    assert np.abs(other.fci_angles() - own.fci_angles()).max() < 0.02
+    assert other.final("WRJ1") == other.final("WRJ2") == 0.0
+    # contacts in the palm frame, where the own model (palm = world) reports them
+    assert sorted(other.contact_link) == sorted(own.contact_link)
+    for link in own.contact_link:
+        a, b = own.contact_link == link, other.contact_link == link
+        where = own.contact_position[a].mean(0) - other.contact_position[b].mean(0)
+        facing = own.contact_normal[a].mean(0) - other.contact_normal[b].mean(0)
+        assert np.abs(where).max() < 3e-3 and np.abs(facing).max() < 0.1
+
+
+def test_hand_model_without_a_required_actuator_exits_2_naming_it(tmp_path, capsys):
+    path = _prefixed_hand(tmp_path)
+    path.write_text(path.read_text().replace('name="rh_A_MFJ0"', 'name="rh_A_MFJX"'))
+    err = run_error(capsys, ["grasp", "--shape", "sphere", "--hand-model", str(path)])
+    assert "has no actuator A_MFJ0" in err
+    err = run_error(capsys, ["grasp", "--shape", "sphere", "--hand-model", str(tmp_path / "x")])
+    assert "does not exist" in err

@@ -89,14 +89,40 @@ def add_force_flag(parser, what: str) -> None:
     )
 
 
-def add_engine_flag(parser) -> None:
+def add_engine_flag(parser, hand_model: bool = False) -> None:
     """``--engine NAME``: which physics engine simulates the grasps (default: the sweep's or
-    the controller's, ``bullet``)."""
+    the controller's, ``bullet``); with ``hand_model``, ``--hand-model FILE.xml`` too."""
     parser.add_argument(
         "--engine", metavar="NAME",
         help="physics engine: bullet (default) or mujoco (pip install 'tactile-bullet[mujoco]'), "
         "or one a plugin registers",
     )  # fmt: skip
+    if hand_model:
+        parser.add_argument(
+            "--hand-model", metavar="FILE.xml",
+            help="another MJCF Shadow hand for the mujoco engine, found by Shadow's joint names "
+            "(docs/engines.md)",
+        )  # fmt: skip
+
+
+def engine_settings(args: argparse.Namespace) -> dict[str, str]:
+    """The controller fields ``--engine`` and ``--hand-model`` ask for (none given: empty),
+    checked before any work: an unknown or missing engine, or a hand model lacking a joint or
+    an actuator, is a UsageError naming it. ``--hand-model`` implies ``--engine mujoco``."""
+    out: dict[str, str] = {}
+    engine = engine_name(args)
+    model = getattr(args, "hand_model", None)
+    if model is not None:
+        if engine not in (None, "mujoco"):
+            raise UsageError(f"--hand-model is an MJCF model: not with --engine {engine}")
+        engine = engine_name(argparse.Namespace(engine="mujoco"))
+        from ..sim.engines.mujoco_hand import load_hand_spec
+
+        load_hand_spec(model)
+        out["hand_model"] = str(Path(model).resolve())
+    if engine is not None:
+        out["engine"] = engine
+    return out
 
 
 def engine_name(args: argparse.Namespace) -> str | None:

@@ -15,7 +15,7 @@ from .common import (
     add_engine_flag,
     count,
     emit_json,
-    engine_name,
+    engine_settings,
     seed_number,
     show_progress,
 )
@@ -50,7 +50,7 @@ def add_parser(sub) -> None:
         "--shard-size", type=count(1, MAX_SHARD_SIZE), default=None,
         help="grasps per shard (default 32; on --resume, the dataset's own)",
     )  # fmt: skip
-    add_engine_flag(parser)
+    add_engine_flag(parser, hand_model=True)
     parser.add_argument("--json", action="store_true", help="print one JSON document")
     parser.set_defaults(run=run)
 
@@ -113,10 +113,10 @@ def run(args: argparse.Namespace) -> int:
     from ..datasets.generate import generate
     from ..datasets.sweeps import Sweep, preset, with_engine
 
-    engine = engine_name(args)
+    settings = engine_settings(args)
     sweep = preset(args.preset) if args.preset else Sweep.from_toml(args.config)
-    if engine is not None:
-        sweep = with_engine(sweep, engine)
+    if settings:
+        sweep = with_engine(sweep, **settings)
     if args.cluster and args.workers != 1:
         raise UsageError("--workers applies to local runs; a cluster has its own workers")
     lines = ProgressLines(args.out) if not sys.stderr.isatty() else contextlib.nullcontext()

@@ -10,7 +10,7 @@ from .common import (
     add_engine_flag,
     add_force_flag,
     emit_json,
-    engine_name,
+    engine_settings,
     image_file,
     output_files,
     parse_key_values,
@@ -57,7 +57,7 @@ def add_parser(sub) -> None:
         help="stop closing a finger once the dynamic detector finds it out of contact "
         "(fewer steps when a finger misses the object)",
     )  # fmt: skip
-    add_engine_flag(parser)
+    add_engine_flag(parser, hand_model=True)
     parser.add_argument("--seed", type=seed_number, default=0)
     parser.add_argument("--out", help="write the GraspRecord to this .npz file")
     parser.add_argument("--snapshot", help="render the grasp to this PNG (CPU renderer)")
@@ -72,8 +72,7 @@ def _controller(args):
     from ..records import ControllerSettings
 
     overrides = {"mode": args.mode, "preshape": args.preshape, "early_stop": args.early_stop}
-    if (engine := engine_name(args)) is not None:
-        overrides["engine"] = engine
+    overrides.update(engine_settings(args))
     for key, value in (("delta", args.delta), ("thres_t", args.thres), ("max_time", args.max_time)):
         if value is not None:
             overrides[key] = value

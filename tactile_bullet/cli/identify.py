@@ -9,7 +9,7 @@ from ..errors import UsageError
 from .common import (
     add_engine_flag,
     emit_json,
-    engine_name,
+    engine_settings,
     parse_key_values,
     parse_number,
     parse_offset,
@@ -46,7 +46,7 @@ def add_parser(sub) -> None:
         "--rotation", default="0", metavar="DEG", help="object rotation about the palm normal"
     )
     parser.add_argument("--seed", type=seed_number, default=0)
-    add_engine_flag(parser)
+    add_engine_flag(parser, hand_model=True)
     parser.add_argument("--json", action="store_true", help="print one JSON document")
     add_recording_options(parser)
     parser.set_defaults(run=run)
@@ -54,9 +54,12 @@ def add_parser(sub) -> None:
 
 def _record(args: argparse.Namespace):
     if args.record:
-        if args.param or args.offset != "0,0,0" or args.rotation != "0" or args.engine:
+        if args.param or args.offset != "0,0,0" or args.rotation != "0" or args.engine or (
+            args.hand_model
+        ):
             raise UsageError(
-                "--param, --offset, --rotation and --engine describe a new grasp: not with --record"
+                "--param, --offset, --rotation, --engine and --hand-model describe a new grasp: "
+                "not with --record"
             )
         from ..records import load_record
 
@@ -66,7 +69,7 @@ def _record(args: argparse.Namespace):
 
     params = {k: parse_number(v, f"--param {k}") for k, v in parse_key_values(args.param).items()}
     pose = Pose(parse_offset(args.offset), parse_rotation(args.rotation))
-    controller = ControllerSettings(engine=engine_name(args) or "bullet")
+    controller = ControllerSettings(**engine_settings(args))
     return simulate_grasp(mesh_shape(args) or args.shape, params, pose, controller, seed=args.seed)
 
 

@@ -400,9 +400,11 @@ PRESETS = {
 }
 
 
-def with_engine(sweep: Sweep, engine: str) -> Sweep:
-    """The sweep simulated with another physics engine (``generate --engine``)."""
-    return replace(sweep, controller=replace(sweep.controller, engine=engine))
+def with_engine(sweep: Sweep, engine: str, hand_model: str | None = None) -> Sweep:
+    """The sweep simulated with another physics engine (``generate --engine``) and, for
+    mujoco, another hand model (``--hand-model``)."""
+    settings = {"engine": engine} | ({"hand_model": hand_model} if hand_model else {})
+    return replace(sweep, controller=replace(sweep.controller, **settings))
 
 
 def preset(name: str) -> Sweep:

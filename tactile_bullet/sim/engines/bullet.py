@@ -13,6 +13,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ...errors import UsageError
 from ...hand import FINGER_LINKS, JOINT_NAMES
 from ...objects.shapes import Shape
 from ...records import ControllerSettings, Pose
@@ -45,6 +46,8 @@ class BulletEngine(Engine):
     ) -> None:
         import pybullet as p
 
+        if controller.hand_model is not None:
+            raise UsageError("--hand-model is an MJCF model: use it with --engine mujoco")
         self.scene = scene = Scene(
             shape, params, pose, timestep=controller.timestep, gui=gui, visual=visual,
             friction=controller.friction, phalanx_scale=controller.phalanx_scale,

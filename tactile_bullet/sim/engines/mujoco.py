@@ -29,12 +29,14 @@ from ...objects.shapes import Shape
 from ...records import ControllerSettings, Pose
 from .base import Contact, Engine
 from .bullet import SWEEP_CLEARANCE, SWEEP_POSES
+from .mujoco_hand import REQUIRED_ACTUATORS, load_hand_spec, name_map, shadow_name
 from .mujoco_objects import object_geoms
 
 SUBSTEPS = 2
 """MuJoCo steps per controller tick: 2.08 ms at the default 240 Hz tick."""
 
-OBJECT_BODY = "object"
+OBJECT_BODY = "tactile_bullet_object"
+ALL_BITS = (1 << 31) - 1
 
 
 def mjcf_path() -> Path:
@@ -71,12 +73,20 @@ class MujocoEngine(Engine):
         if gui:
             raise UsageError("--gui shows PyBullet's window: use it with --engine bullet")
         self._mj = mujoco
-        proto = _prototype(shape, params, controller, hand_model)
+        proto = _prototype(shape, params, controller, hand_model or controller.hand_model)
         self.__dict__.update(proto.index)
         self.model = m = copy.copy(proto.model)  # the grasp changes force limits: a copy
-        m.body_pos[self._object_body] = object_position(shape, params, pose)
+        position = np.asarray(object_position(shape, params, pose), float)
         half = pose.rotation / 2  # about the palm normal (y), as the bullet engine turns it
-        m.body_quat[self._object_body] = (math.cos(half), 0.0, math.sin(half), 0.0)
+        quat = np.array([math.cos(half), 0.0, math.sin(half), 0.0])
+        if self._palm is not None:  # another model's palm is not the world frame
+            palm_pos, palm_rot, palm_quat = self._palm
+            position = palm_pos + palm_rot @ position
+            turned = np.zeros(4)
+            mujoco.mju_mulQuat(turned, palm_quat, quat)
+            quat = turned
+        m.body_pos[self._object_body] = position
+        m.body_quat[self._object_body] = quat
         m.geom_friction[:, 0] = controller.friction
         n = len(JOINT_NAMES)
         self._targets = np.zeros(n + 1)  # column n stays 0: the pair of unpaired actuators
@@ -89,12 +99,13 @@ class MujocoEngine(Engine):
 
     def _index(self, m) -> None:
         mj = self._mj
+        joints, actuators = name_map(m, "joint"), name_map(m, "actuator")
         n = len(JOINT_NAMES)
         self.columns = []
         self._qpos, self._dof = np.zeros(n, int), np.zeros(n, int)
         self.lower, self.upper, self.damping = np.zeros(n), np.zeros(n), np.zeros(n)
         for col, name in enumerate(JOINT_NAMES):
-            j = mj.mj_name2id(m, mj.mjtObj.mjOBJ_JOINT, name)
+            j = joints.get(name, -1)
             if j < 0:
                 continue
             self.columns.append(col)
@@ -107,13 +118,13 @@ class MujocoEngine(Engine):
         self._pair = np.full(n, n)  # column n of the padded targets is always 0
         driving = []
         for col, name in enumerate(JOINT_NAMES):
-            a = mj.mj_name2id(m, mj.mjtObj.mjOBJ_ACTUATOR, f"A_{name}")
-            if a >= 0:
+            a = actuators.get(f"A_{name}", -1)
+            if a >= 0 and f"A_{name}" in REQUIRED_ACTUATORS:
                 self._act[col] = a
                 driving.append(col)
         for f in LONG_FINGERS:
             F = f.upper()
-            a = mj.mj_name2id(m, mj.mjtObj.mjOBJ_ACTUATOR, f"A_{F}J0")
+            a = actuators[f"A_{F}J0"]
             j2, j1 = JOINT_NAMES.index(f"{F}J2"), JOINT_NAMES.index(f"{F}J1")
             self._act[j2] = self._act[j1] = a
             self._pair[j2] = j1  # the tendon's target: J2's + J1's
@@ -123,11 +134,21 @@ class MujocoEngine(Engine):
         body_of = m.geom_bodyid
         self._object_body = mj.mj_name2id(m, mj.mjtObj.mjOBJ_BODY, OBJECT_BODY)
         self._is_object = body_of == self._object_body
-        self._body_names = [mj.mj_id2name(m, mj.mjtObj.mjOBJ_BODY, b) for b in range(m.nbody)]
+        self._body_names = [
+            shadow_name(mj.mj_id2name(m, mj.mjtObj.mjOBJ_BODY, b), "body") or ""
+            for b in range(m.nbody)
+        ]
         self._geom_link = [self._body_names[b] for b in body_of]
+        palm = name_map(m, "body")["palm"]
+        d = mj.MjData(m)
+        mj.mj_kinematics(m, d)
+        pos, rot = d.xpos[palm].copy(), d.xmat[palm].reshape(3, 3).copy()
+        same = not pos.any() and np.array_equal(rot, np.eye(3))
+        self._palm = None if same else (pos, rot, d.xquat[palm].copy())
         self._object_geoms = np.flatnonzero(self._is_object)
         self._finger_geoms = {
-            f: [g for g in range(m.ngeom) if self._geom_link[g] in links and m.geom_contype[g]]
+            f: [g for g in range(m.ngeom)
+                if self._geom_link[g] in links and (m.geom_contype[g] or m.geom_conaffinity[g])]
             for f, links in FINGER_LINKS.items()
         }
 
@@ -200,6 +221,9 @@ class MujocoEngine(Engine):
             hand = geoms[i, 1] if obj[i, 0] else geoms[i, 0]
             position = d.contact.pos[i] - 0.5 * d.contact.dist[i] * normal  # on the object
             mj.mj_contactForce(m, d, int(i), force)
+            if self._palm is not None:
+                palm_pos, palm_rot, _ = self._palm
+                position, normal = palm_rot.T @ (position - palm_pos), palm_rot.T @ normal
             out.append((self._geom_link[hand], position, normal, float(force[0])))
         return out
 
@@ -298,14 +322,19 @@ def _prototype(shape, params, controller, hand_model) -> _Prototype:
         return found
     import mujoco
 
-    path = Path(hand_model) if hand_model else mjcf_path()
-    spec = mujoco.MjSpec.from_string(_hand_xml(str(path)))
+    if hand_model:
+        if controller.phalanx_scale != 1.0:
+            raise UsageError("phalanx_scale changes the project's own hand, not a --hand-model")
+        spec = load_hand_spec(hand_model)
+    else:
+        spec = mujoco.MjSpec.from_string(_hand_xml(str(mjcf_path())))
     if controller.phalanx_scale != 1.0:
         _scale_phalanges(spec, controller.phalanx_scale)
     spec.option.timestep = controller.timestep / SUBSTEPS
     body = spec.worldbody.add_body(name=OBJECT_BODY)
     for k, geom in enumerate(object_geoms(shape, params)):
-        extra = {"contype": 0, "conaffinity": 1, "condim": 3}
+        # collides with every hand geom that collides at all, never with itself
+        extra = {"contype": 0, "conaffinity": ALL_BITS, "condim": 3}
         if geom.kind == "mesh":
             spec.add_mesh(name=f"object{k}", uservert=np.asarray(geom.vertices).ravel())
             body.add_geom(type=mujoco.mjtGeom.mjGEOM_MESH, meshname=f"object{k}", **extra)

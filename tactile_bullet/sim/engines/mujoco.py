@@ -13,6 +13,7 @@ from __future__ import annotations
 import copy
 import functools
 import math
+import os
 import time
 from collections import OrderedDict
 from collections.abc import Mapping, Sequence
@@ -68,10 +69,12 @@ class MujocoEngine(Engine):
         visual: bool = False,
         hand_model: str | Path | None = None,
     ) -> None:
-        import mujoco
-
         if gui:
             raise UsageError("--gui shows PyBullet's window: use it with --engine bullet")
+        if visual and "MUJOCO_GL" not in os.environ and not os.environ.get("DISPLAY"):
+            os.environ["MUJOCO_GL"] = "egl"  # headless rendering; read when mujoco is imported
+        import mujoco
+
         self._mj = mujoco
         proto = _prototype(shape, params, controller, hand_model or controller.hand_model)
         self.__dict__.update(proto.index)
@@ -271,19 +274,19 @@ class MujocoEngine(Engine):
         mj = self._mj
         try:
             renderer = mj.Renderer(self.model, height, width)
+            tiles = []
+            for azimuth, elevation in ((0.0, -10.0), (50.0, -25.0)):
+                camera = mj.MjvCamera()
+                camera.lookat[:] = (0.0, -0.05, 0.1)
+                camera.distance, camera.azimuth, camera.elevation = 0.36, azimuth, elevation
+                renderer.update_scene(self.data, camera)
+                tiles.append(renderer.render())
+            renderer.close()
         except Exception as exc:  # noqa: BLE001 - no OpenGL context on this machine
+            why = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
             raise UsageError(
-                f"--snapshot with the mujoco engine needs OpenGL (set MUJOCO_GL=egl or osmesa): "
-                f"{exc}"
+                f"--snapshot with the mujoco engine needs OpenGL (MUJOCO_GL=egl or osmesa): {why}"
             ) from None
-        tiles = []
-        for azimuth, elevation in ((0.0, -10.0), (50.0, -25.0)):
-            camera = mj.MjvCamera()
-            camera.lookat[:] = (0.0, -0.05, 0.1)
-            camera.distance, camera.azimuth, camera.elevation = 0.36, azimuth, elevation
-            renderer.update_scene(self.data, camera)
-            tiles.append(renderer.render())
-        renderer.close()
         path = Path(path)
         if not cv2.imwrite(str(path), cv2.cvtColor(np.hstack(tiles), cv2.COLOR_RGB2BGR)):
             raise UsageError(f"cannot write snapshot {path}")
@@ -334,7 +337,8 @@ def _prototype(shape, params, controller, hand_model) -> _Prototype:
     body = spec.worldbody.add_body(name=OBJECT_BODY)
     for k, geom in enumerate(object_geoms(shape, params)):
         # collides with every hand geom that collides at all, never with itself
-        extra = {"contype": 0, "conaffinity": ALL_BITS, "condim": 3}
+        extra = {"contype": 0, "conaffinity": ALL_BITS, "condim": 3,
+                 "rgba": [0.25, 0.55, 0.85, 1.0]}  # fmt: skip
         if geom.kind == "mesh":
             spec.add_mesh(name=f"object{k}", uservert=np.asarray(geom.vertices).ravel())
             body.add_geom(type=mujoco.mjtGeom.mjGEOM_MESH, meshname=f"object{k}", **extra)

@@ -8,10 +8,12 @@ Per finger (ff, mf, rf, lf), independently and all at once:
 2. stage J0: raise the coupled J0 = J1 + J2 the same way until the distal joint J1 reports the
    effort (or the distal phalanx the contact), or J0 reaches pi.
 
-The J1/J2 tendon is modelled in the controller (PyBullet ignores URDF transmissions): J0's
-increments go to J2 first, as on the real hand where the middle phalanx leads; once J2 is
-blocked (its effort over the threshold, or its limit) the tendon's further travel goes to J1.
-A joint that stops holds the angle it was measured at (position control, J3 at the sheet's
+Written once over the engine interface (``sim/engines/base.py``): only stepping and reading
+differ between engines. On ``bullet`` the J1/J2 tendon is modelled in the controller (PyBullet
+ignores URDF transmissions) by the rule of ``sim/coupling.py``: J0's increments go to J2
+first, as on the real hand where the middle phalanx leads; once J2 is blocked (its effort over
+the threshold, or its limit) the tendon's further travel goes to J1. On ``mujoco`` a fixed
+tendon on one actuator splits J0 physically and the controller only sends the sum. A joint that stops holds the angle it was measured at (position control, J3 at the sheet's
 2 N m, the J0 tendon at 1 N m). Before the fingers move, the thumb is brought to opposition,
 stopping where it meets the object, and held there. The grasp ends when every finger is done
 (or at ``max_time``, flagged ``did_not_settle``); the hand then holds its targets

@@ -212,3 +212,17 @@ def test_hand_model_without_a_required_actuator_exits_2_naming_it(tmp_path, caps
     assert "has no actuator A_MFJ0" in err
     err = run_error(capsys, ["grasp", "--shape", "sphere", "--hand-model", str(tmp_path / "x")])
     assert "does not exist" in err
+
+
+def test_evaluate_report_names_the_engines_of_mixed_test_data():
+    from tactile_bullet.experiments.workflow import evaluate, train
+    from tactile_bullet.sim.grasp import simulate_grasp
+
+    records = [
+        simulate_grasp(shape, None, Pose(), ControllerSettings(engine=engine, mode="contact"))
+        for shape in ("sphere", "cylinder")
+        for engine in ("bullet", "mujoco")
+    ]
+    model = train(records, "raw-joints", "knn")
+    assert evaluate(model, records)["engines"] == ["bullet", "mujoco"]
+    assert "engines" not in evaluate(model, records[::2])  # bullet only: as before engines

@@ -191,6 +191,9 @@ def evaluate(model, records: Iterable[GraspRecord]) -> dict[str, Any]:
     # nothing carries no shape, and `identify` names none
     doc["no_contact"] = sum(nothing_to_identify(r) is not None for r in records)
     doc["model"] = describe_model(model)
+    engines = sorted({r.controller.engine for r in records if r.source == "simulated"})
+    if engines and engines != ["bullet"]:  # another engine, or a mix: the report says so
+        doc["engines"] = engines
     return doc
 
 

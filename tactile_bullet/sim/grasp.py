@@ -13,8 +13,9 @@ differ between engines. On ``bullet`` the J1/J2 tendon is modelled in the contro
 ignores URDF transmissions) by the rule of ``sim/coupling.py``: J0's increments go to J2
 first, as on the real hand where the middle phalanx leads; once J2 is blocked (its effort over
 the threshold, or its limit) the tendon's further travel goes to J1. On ``mujoco`` a fixed
-tendon on one actuator splits J0 physically and the controller only sends the sum. A joint that stops holds the angle it was measured at (position control, J3 at the sheet's
-2 N m, the J0 tendon at 1 N m). Before the fingers move, the thumb is brought to opposition,
+tendon on one actuator splits J0 physically and the controller only sends the sum. A joint
+that stops holds the angle it was measured at (position control, J3 at the sheet's 2 N m, the
+J0 tendon at 1 N m). Before the fingers move, the thumb is brought to opposition,
 stopping where it meets the object, and held there. The grasp ends when every finger is done
 (or at ``max_time``, flagged ``did_not_settle``); the hand then holds its targets
 ``settle_steps`` steps and the final state is read.

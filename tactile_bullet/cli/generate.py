@@ -9,6 +9,7 @@ import threading
 import time
 from pathlib import Path
 
+from ..console import plural
 from ..errors import UsageError
 from .common import (
     MAX_WORKERS,
@@ -35,7 +36,8 @@ def add_parser(sub) -> None:
     )
     source = parser.add_mutually_exclusive_group(required=True)
     source.add_argument(
-        "--preset", help="thesis, modified, sequential, temporal or smoke (a few grasps, seconds)"
+        "--preset", help="thesis, modified, sequential, temporal, randomized (the thesis "
+        "sweep with the hand and physics drawn per grasp) or smoke (a few grasps, seconds)"
     )
     source.add_argument("--config", metavar="FILE.toml", help="a sweep declared in TOML")
     parser.add_argument("--out", required=True, help="dataset directory (new or resumed)")
@@ -111,7 +113,8 @@ def run(args: argparse.Namespace) -> int:
     import contextlib
 
     from ..datasets.generate import generate
-    from ..datasets.sweeps import Sweep, preset, with_engine
+    from ..datasets.sweep_engines import with_engine
+    from ..datasets.sweeps import Sweep, preset
 
     settings = engine_settings(args)
     sweep = preset(args.preset) if args.preset else Sweep.from_toml(args.config)
@@ -135,7 +138,8 @@ def run(args: argparse.Namespace) -> int:
         emit_json(doc)
     else:
         print(
-            f"{doc['records']} grasps in {doc['shards']} shards at {doc['out']} "
+            f"{plural(doc['records'], 'grasp')} in {plural(doc['shards'], 'shard')} at "
+            f"{doc['out']} "
             f"({doc['failed']} failed) in {doc['wall_time_s']:.1f} s"
         )
         for problem in doc["repaired"]:

@@ -25,13 +25,18 @@ A size parameter left out takes its default (grid) or its whole valid range (ran
 Mesh files join a sweep as ``[[objects]]`` tables (``file = "mug.stl"`` with optional ``name``,
 ``unit``, ``scale``, ``axis``; or ``folder = "objects/"`` for every mesh file in it), with the
 same pose keys as a shape; their grasps are labelled with the object names (``objects/meshes.py``).
+
+A ``[randomize]`` table draws the hand and physics per grasp (friction, thresT, closing speed,
+phalanx lengths, joint reading offsets, J1/J2 coupling, contact stiffness, control rate), each
+record keeping what it drew: ``datasets/randomize.py`` has its keys; the ``randomized`` preset
+is the thesis preset with ``randomize.RANDOMIZED_TABLE``.
 """
 
 from __future__ import annotations
 
 import math
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass, field, fields, replace
+from dataclasses import dataclass, field, fields
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -46,10 +51,12 @@ from ..records import (
     Pose,
     controller_dict,
 )
+from .sweep_engines import check_engine, merge_engine
 
 if TYPE_CHECKING:
     from ..objects.meshes import MeshSource
     from ..objects.shapes import Shape
+    from .randomize import Randomization
 
 Dimension = tuple[float, ...] | dict[str, float]
 """A list of values, or {"min", "max"} (+ "steps" in grid mode)."""
@@ -61,7 +68,8 @@ such as ``samples = 1000000000`` or a grid of 1e12 points is refused before anyt
 allocated (:meth:`Sweep.size`). Split larger collections into several datasets."""
 
 SHAPE_KEYS = ("name", "params", "offset_x", "offset_y", "offset_z", "rotation_deg", "samples")
-SWEEP_KEYS = ("name", "mode", "samples", "controller", "shapes", "objects", "engine")
+SWEEP_KEYS = ("name", "mode", "samples", "controller", "shapes", "objects", "randomize",
+              "engine")
 POSE_KEYS = ("offset_x", "offset_y", "offset_z", "rotation_deg", "samples")
 
 
@@ -118,6 +126,8 @@ class Sweep:
     samples: int = 10
     controller: ControllerSettings = field(default_factory=ControllerSettings)
     objects: tuple[ObjectSweep, ...] = ()
+    randomize: Randomization | None = None
+    """The ``[randomize]`` table: hand and physics drawn per grasp (``datasets/randomize.py``)."""
 
     # --- construction -------------------------------------------------------------------
 
@@ -135,23 +145,21 @@ class Sweep:
         controller_data = data.get("controller", {})
         if not isinstance(controller_data, Mapping):
             raise UsageError(f"{source}: [controller] must be a table")
-        if "engine" in data:  # top-level shorthand of [controller] engine
-            if controller_data.get("engine", data["engine"]) != data["engine"]:
-                raise UsageError(f"{source}: engine and [controller] engine disagree")
-            controller_data = {**controller_data, "engine": data["engine"]}
+        controller_data = merge_engine(data, controller_data, source)
         known = {f.name for f in fields(ControllerSettings)}
         _no_unknown(controller_data, tuple(known), f"{source}: [controller]")
         try:
             controller = ControllerSettings(**controller_data)
         except (TypeError, ValueError) as exc:  # UsageError is a ValueError
             raise UsageError(f"{source}: [controller] {exc}") from None
-        if controller.engine != "bullet":
-            from ..plugins import get_engine
+        check_engine(controller, source)
+        randomize = None
+        if "randomize" in data:
+            from .randomize import Randomization
 
-            try:
-                get_engine(controller.engine)  # unknown or not installed: before any grasp
-            except UsageError as exc:
-                raise UsageError(f"{source}: {exc}") from None
+            randomize = Randomization.from_dict(
+                data["randomize"], f"{source}: [randomize]", controller
+            )
         shapes_data = data.get("shapes", [])
         objects_data = data.get("objects", [])
         if not isinstance(shapes_data, list) or not isinstance(objects_data, list):
@@ -176,6 +184,7 @@ class Sweep:
             samples=samples,
             controller=controller,
             objects=objects,
+            randomize=randomize,
         )
 
     @classmethod
@@ -192,7 +201,9 @@ class Sweep:
             "samples": self.samples,
             "controller": controller_dict(self.controller),
             "shapes": [_shape_dict(s) for s in self.shapes],
-        } | ({"objects": [_object_dict(o) for o in self.objects]} if self.objects else {})
+        } | ({"objects": [_object_dict(o) for o in self.objects]} if self.objects else {}) | (
+            {"randomize": self.randomize.to_dict()} if self.randomize is not None else {}
+        )
 
     # --- expansion ----------------------------------------------------------------------
 
@@ -267,8 +278,12 @@ class Sweep:
                 )
                 specs.append((obj.name, {}, pose, obj.source))
         seeds = np.random.SeedSequence(int(seed)).generate_state(len(specs), dtype=np.uint32)
+        from .randomize import draw_for_task
+
+        ctl = self.controller
         return [
-            GraspTask(i, name, params, pose, self.controller, int(s), mesh)
+            GraspTask(i, name, params, pose, draw_for_task(self.randomize, ctl, int(s)), int(s),
+                      mesh)  # fmt: skip
             for i, ((name, params, pose, mesh), s) in enumerate(zip(specs, seeds, strict=True))
         ]
 
@@ -391,20 +406,25 @@ def _temporal() -> Sweep:
     return Sweep("temporal", tuple(shapes), mode="random", samples=40)
 
 
+def _randomized() -> Sweep:
+    """The thesis preset with the hand and physics drawn per grasp
+    (``randomize.RANDOMIZED_TABLE``): training data for a hand that is not our simulator's."""
+    from .randomize import RANDOMIZED_TABLE, Randomization
+
+    thesis = _thesis()
+    return Sweep(
+        "randomized", thesis.shapes, randomize=Randomization.from_dict(RANDOMIZED_TABLE)
+    )
+
+
 PRESETS = {
     "thesis": _thesis,
     "modified": _modified,
     "sequential": _sequential,
     "smoke": _smoke,
     "temporal": _temporal,
+    "randomized": _randomized,
 }
-
-
-def with_engine(sweep: Sweep, engine: str, hand_model: str | None = None) -> Sweep:
-    """The sweep simulated with another physics engine (``generate --engine``) and, for
-    mujoco, another hand model (``--hand-model``)."""
-    settings = {"engine": engine} | ({"hand_model": hand_model} if hand_model else {})
-    return replace(sweep, controller=replace(sweep.controller, **settings))
 
 
 def preset(name: str) -> Sweep:

@@ -12,8 +12,10 @@ Written once over the engine interface (``sim/engines/base.py``): only stepping 
 differ between engines. On ``bullet`` the J1/J2 tendon is modelled in the controller (PyBullet
 ignores URDF transmissions) by the rule of ``sim/coupling.py``: J0's increments go to J2
 first, as on the real hand where the middle phalanx leads; once J2 is blocked (its effort over
-the threshold, or its limit) the tendon's further travel goes to J1. On ``mujoco`` a fixed
-tendon on one actuator splits J0 physically and the controller only sends the sum. A joint
+the threshold, or its limit) the tendon's further travel goes to J1. That is the default
+``ControllerSettings.coupling``; ``sim/coupling.py`` holds it and the other rules (equal
+torque, distal first). On ``mujoco`` a fixed tendon on one actuator splits J0 physically: the
+controller only sends the sum, and the rule decides when the finger is done. A joint
 that stops holds the angle it was measured at (position control, J3 at the sheet's 2 N m, the
 J0 tendon at 1 N m). Before the fingers move, the thumb is brought to opposition,
 stopping where it meets the object, and held there. The grasp ends when every finger is done
@@ -41,7 +43,7 @@ from ..hand import (
 )
 from ..objects.shapes import Shape
 from ..records import ControllerSettings, GraspRecord, Pose
-from .coupling import COUPLINGS, TendonState
+from .coupling import Tendon, advance
 from .engines.base import Engine
 
 J3, J0 = 0, 1
@@ -65,7 +67,8 @@ def resolve_shape(name: str) -> Shape:
 class _Finger:
     """Algorithm 1's state for one long finger."""
 
-    __slots__ = ("name", "j3", "j2", "j1", "stage", "t3", "t2", "t1", "j2_free", "links")
+    __slots__ = ("name", "j3", "j2", "j1", "stage", "t3", "t2", "t1", "j2_free", "j1_free",
+                 "links")  # fmt: skip
 
     def __init__(self, name: str) -> None:
         up = name.upper()
@@ -73,7 +76,7 @@ class _Finger:
         self.j3, self.j2, self.j1 = (JOINT_NAMES.index(f"{up}J{k}") for k in (3, 2, 1))
         self.stage = J3
         self.t3 = self.t2 = self.t1 = 0.0
-        self.j2_free = True
+        self.j2_free = self.j1_free = True
         self.links = (f"{name}proximal", f"{name}middle", {f"{name}distal"})
 
 
@@ -107,6 +110,8 @@ def simulate_grasp(
         record = _run(engine, spec, values, pose, ctl, int(seed), scene_hook)
     finally:
         engine.close()
+    if ctl.joint_offsets:
+        record = offset_readings(record, ctl.joint_offsets)
     identity = getattr(spec, "identity", None)  # a mesh file's (meshes.MeshShape)
     return dataclasses.replace(record, mesh=identity) if identity else record
 
@@ -148,7 +153,6 @@ class _GraspRun:
         j3s = [JOINT_NAMES.index(f"{f.upper()}J3") for f in LONG_FINGERS]
         self.forces[j3s] = 2.0 * ctl.motor_force
         self.damping = engine.damping
-        self.coupling = COUPLINGS[engine.coupling]
         self.fingers = [_Finger(f) for f in LONG_FINGERS]
         self.torque_mode = ctl.mode == "torque"
         self.sample_every = max(1, round(1.0 / (ctl.sample_rate * ctl.timestep)))
@@ -295,18 +299,18 @@ class _GraspRun:
                 f.t3 = min(f.t3 + delta, upper[f.j3])
                 self.targets[f.j3] = f.t3
             return
+        # stage J0: the tendon's travel goes to J2 and J1 by the coupling rule (sim/coupling.py)
         if self.torque_mode:
-            j2_blocked, j1_blocked = e2 > thres, e1 > thres
+            blocked = (e2 > thres, e1 > thres)
         else:
-            j2_blocked, j1_blocked = f.links[1] in links, bool(f.links[2] & links)
-        state = self.coupling(
-            TendonState(f.t2, f.t1, f.j2_free, False), j2_blocked, j1_blocked,
-            q[1], q[2], upper[f.j2], upper[f.j1], delta,
+            blocked = (f.links[1] in links, bool(f.links[2] & links))
+        tendon = advance(
+            self.ctl.coupling, Tendon(f.t2, f.t1, f.j2_free, f.j1_free), blocked,
+            (q[1], q[2]), delta, (upper[f.j2], upper[f.j1]),
         )  # fmt: skip
-        f.t2 = self.targets[f.j2] = state.t2
-        f.t1 = self.targets[f.j1] = state.t1
-        f.j2_free = state.j2_free
-        if state.done:
+        f.t2, f.t1, f.j2_free, f.j1_free = tendon.t2, tendon.t1, tendon.free2, tendon.free1
+        self.targets[f.j2], self.targets[f.j1] = f.t2, f.t1
+        if tendon.done:
             f.stage = DONE
 
     def stop_finger(self, f: _Finger, q) -> None:
@@ -395,6 +399,20 @@ _FCI_COLUMNS = np.array(
     [[JOINT_NAMES.index(FCI_JOINTS[f][row]) for f in LONG_FINGERS] for row in range(3)]
 )
 """Record columns of the (3, 4) FCI angles: rows J3, J2, J1; columns ff, mf, rf, lf."""
+
+
+def offset_readings(record: GraspRecord, offsets) -> GraspRecord:
+    """The record as sensors with calibration ``offsets`` (rad, ``records.OFFSET_JOINTS``
+    order) report it: each offset added to its joint's sampled and final angles. The controller
+    ran on the true angles; only what the hand reports is shifted."""
+    from ..records import OFFSET_JOINTS
+
+    cols = [record.joint_index(name) for name in OFFSET_JOINTS]
+    shift = np.zeros(len(record.joint_names))
+    shift[cols] = offsets
+    return dataclasses.replace(
+        record, angles=record.angles + shift, final_angles=record.final_angles + shift
+    )
 
 
 def timed_grasp(*args, **kwargs) -> tuple[GraspRecord, float]:

@@ -19,8 +19,6 @@ from pathlib import Path
 
 import numpy as np
 
-from ..coupling import DEFAULT_COUPLING
-
 Contact = tuple[str, np.ndarray, np.ndarray, float]
 """(hand link name, position on the object, the object's outward normal, normal force), in the
 palm frame (m, unit vector, N)."""
@@ -33,12 +31,11 @@ class Engine(ABC):
     moves; ``lower``/``upper``/``damping`` per record column (rad, N m s/rad; 0 for joints it
     does not have); ``tendon`` True when the engine couples J1 and J2 itself (one actuator on
     J0 = J1 + J2, as the real hand's tendon) and then only the sum of the J2 and J1 targets it
-    is sent matters; ``coupling`` the name of the controller's rule otherwise (``sim/coupling.py``).
+    is sent matters (otherwise ``ControllerSettings.coupling`` splits J0, ``sim/coupling.py``).
     """
 
     name: str = ""
     tendon: bool = False
-    coupling: str = DEFAULT_COUPLING
     columns: list[int]
     lower: np.ndarray
     upper: np.ndarray
@@ -87,8 +84,8 @@ class Engine(ABC):
         work between ticks): the ceiling any controller around it could reach."""
 
     @abstractmethod
-    def snapshot(self, path: str | Path, width: int = 640, height: int = 480) -> Path:
-        """Render the scene to a PNG (two views side by side)."""
+    def snapshot(self, path: str | Path, size: int = 480) -> Path:
+        """Render the scene to a PNG (two square views of ``size`` pixels side by side)."""
 
     @abstractmethod
     def close(self) -> None:

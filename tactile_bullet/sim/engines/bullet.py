@@ -51,6 +51,7 @@ class BulletEngine(Engine):
         self.scene = scene = Scene(
             shape, params, pose, timestep=controller.timestep, gui=gui, visual=visual,
             friction=controller.friction, phalanx_scale=controller.phalanx_scale,
+            contact_stiffness=controller.contact_stiffness,
         )  # fmt: skip
         self.client, self.hand = scene.client, scene.hand
         self._position_control = p.POSITION_CONTROL
@@ -130,10 +131,10 @@ class BulletEngine(Engine):
             client.stepSimulation()
         return steps / (time.perf_counter() - start)
 
-    def snapshot(self, path: str | Path, width: int = 640, height: int = 480) -> Path:
+    def snapshot(self, path: str | Path, size: int = 480) -> Path:
         from ..render import snapshot
 
-        return snapshot(self.scene, path, width, height)
+        return snapshot(self.scene, path, size)
 
     def close(self) -> None:
         self.scene.close()

@@ -71,6 +71,12 @@ class MujocoEngine(Engine):
     ) -> None:
         if gui:
             raise UsageError("--gui shows PyBullet's window: use it with --engine bullet")
+        if controller.contact_stiffness > 0:
+            # Tried as MuJoCo's direct stiffness over a 30 g fingertip mass: at 3e4 N/m the
+            # fingers went through the object at 2 ms steps, and MuJoCo's own default contact
+            # (20 ms time constant) is softer than 3e3 N/m would be, so the knob has no
+            # faithful counterpart here yet.
+            raise UsageError("contact_stiffness (a soft contact) is the bullet engine's only")
         if visual and "MUJOCO_GL" not in os.environ and not os.environ.get("DISPLAY"):
             os.environ["MUJOCO_GL"] = "egl"  # headless rendering; read when mujoco is imported
         import mujoco
@@ -268,12 +274,12 @@ class MujocoEngine(Engine):
             mj.mj_step(m, d, SUBSTEPS)
         return steps / (time.perf_counter() - start)
 
-    def snapshot(self, path: str | Path, width: int = 640, height: int = 480) -> Path:
+    def snapshot(self, path: str | Path, size: int = 480) -> Path:
         import cv2
 
         mj = self._mj
         try:
-            renderer = mj.Renderer(self.model, height, width)
+            renderer = mj.Renderer(self.model, size, size)
             tiles = []
             for azimuth, elevation in ((0.0, -10.0), (50.0, -25.0)):
                 camera = mj.MjvCamera()

@@ -73,6 +73,7 @@ def run(args: argparse.Namespace) -> int:
     from collections import Counter
     from pathlib import Path
 
+    from ..files import probe_parent
     from ..realhand.recordings import check_dataset_out, read_recording, write_dataset
 
     start = time.perf_counter()
@@ -80,6 +81,7 @@ def run(args: argparse.Namespace) -> int:
         raise UsageError("--shape must not be empty")
     options = recording_options(args)
     check_dataset_out(Path(args.out), args.force)  # refuse before reading gigabytes
+    probe_parent(args.out, "--out")
     files, records = [], []
     for path in args.files:
         grasps = read_recording(path, shape=args.shape, **options)

@@ -164,9 +164,26 @@ def save_model(path: str | Path, model: Model) -> Path:
     return path
 
 
+MODEL_MEMBER_LIMIT = 1 << 30
+"""The most bytes one array of a model file may decompress to (models are a few MB; an SVM on
+a million grasps holds ~200 MB of support vectors)."""
+
+
+def _is_model_member(name: str) -> bool:
+    return name in ("meta", "estimator_state", "estimator_skops") or name.startswith(
+        _STATE_PREFIX
+    )
+
+
 def _read(path: Path) -> tuple[dict, dict[str, np.ndarray]]:
-    if not path.is_file():
-        raise UsageError(f"model file {path} does not exist")
+    from ..files import check_npz_members, input_path
+
+    input_path(path, "model file")
+    try:
+        check_npz_members(path, str(path), _is_model_member, MODEL_MEMBER_LIMIT)
+    except UsageError as exc:
+        why = str(exc).removeprefix(f"{path} ")
+        raise UsageError(f"{path} is not a tactile-bullet model ({why})") from None
     try:
         with np.load(path, allow_pickle=False) as data:
             contents = {k: data[k] for k in data.files}

@@ -51,6 +51,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import UsageError
+from ..files import input_path
 from ..records import ControllerSettings, GraspRecord, Pose
 from .bags import read_bag
 from .calibration import Calibration
@@ -173,9 +174,7 @@ def read_samples(
 ) -> JointSamples:
     """A recording of any supported kind, by its suffix (a folder is a ROS 2 bag); one hand's
     samples (``prefix`` "rh" picks one where the file holds two)."""
-    path = Path(path)
-    if not path.exists():
-        raise UsageError(f"recording {path} does not exist")
+    path = input_path(path, "recording", folder=True)
     suffix = path.suffix.lower()
     if suffix in (".csv", ".parquet", ".pq"):
         return read_table(path, marker, calibration, prefix=prefix)

@@ -36,10 +36,16 @@ from .calibration import Calibration
 from .joints import JointMap, closure
 from .names import is_hand_message
 from .recordings import record_from_samples
-from .segment import GAP_S, STILL_TOL, GraspSegmenter
+from .segment import GAP_S, GraspSegmenter
 
 TRIM_AT = 4096
-"""Samples kept before a grasp starts are trimmed once the buffer holds this many."""
+"""Samples kept before a grasp starts are trimmed once the buffer holds this many; where the
+open hand's lowest closure is older than that, it is looked for again among the newest
+half (a grasp's start is the lowest closure before it), so an idle hand keeps at most this
+many samples (~40 s at 100 Hz)."""
+MAX_GRASP_SAMPLES = 60_000
+"""A grasp still unsettled after this many samples (10 min at 100 Hz: a hand that never
+holds still) is decided as it stands, so the buffer and ``result``'s cost stay bounded."""
 
 
 def checked_message(
@@ -177,7 +183,7 @@ class Identifier:
             e = jmap.efforts(efforts)
         seg = self._segmenter
         c = float(closure(q))
-        if seg.closing and seg.settled and abs(c - seg.c_ref) <= STILL_TOL:
+        if seg.closing and seg.settled:
             # held: the last sample follows the hand instead of the buffer growing for as
             # long as the object is held (result() stays as fast as at the grasp's end)
             index = self._offset + len(self._t) - 1
@@ -192,8 +198,17 @@ class Identifier:
         done = seg.push(index, t, c)
         if done is not None:
             self._keep(done)
+        if seg.closing and index - seg.start >= MAX_GRASP_SAMPLES:
+            self.finish()
+            seg._open_at(index, c)
         if not seg.closing and len(self._t) > TRIM_AT:
             self._trim(seg.i_min)
+            if len(self._t) > TRIM_AT:  # the lowest closure is old: look again, newest half
+                half = TRIM_AT // 2
+                levels = closure(np.array(self._q[-half:]))
+                k = int(np.argmin(levels))
+                seg.c_min, seg.i_min = float(levels[k]), self._offset + len(self._t) - half + k
+                self._trim(seg.i_min)
 
     def finish(self) -> None:
         """The caller knows the grasp is over (end of a replay, a marker): close it now."""

@@ -10,9 +10,11 @@ from typing import Any
 from ..errors import UsageError
 
 
-def merge_engine(data: Mapping[str, Any], controller_data: Mapping[str, Any], source: str) -> dict:
-    """``[controller]`` with the top-level ``engine = "..."`` shorthand folded in (the two
-    may not disagree)."""
+def merge_engine(data: Mapping[str, Any], controller_data: Any, source: str) -> dict:
+    """``[controller]`` (which must be a table) with the top-level ``engine = "..."`` shorthand
+    folded in (the two may not disagree)."""
+    if not isinstance(controller_data, Mapping):
+        raise UsageError(f"{source}: [controller] must be a table")
     out = dict(controller_data)
     if "engine" in data:
         if out.get("engine", data["engine"]) != data["engine"]:

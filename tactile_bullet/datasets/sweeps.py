@@ -68,8 +68,7 @@ such as ``samples = 1000000000`` or a grid of 1e12 points is refused before anyt
 allocated (:meth:`Sweep.size`). Split larger collections into several datasets."""
 
 SHAPE_KEYS = ("name", "params", "offset_x", "offset_y", "offset_z", "rotation_deg", "samples")
-SWEEP_KEYS = ("name", "mode", "samples", "controller", "shapes", "objects", "randomize",
-              "engine")
+SWEEP_KEYS = ("name", "mode", "samples", "controller", "shapes", "objects", "randomize", "engine")
 POSE_KEYS = ("offset_x", "offset_y", "offset_z", "rotation_deg", "samples")
 
 
@@ -142,10 +141,7 @@ class Sweep:
         if mode not in ("grid", "random"):
             raise UsageError(f"{source}: mode must be 'grid' or 'random', got {mode!r}")
         samples = _positive_int(data.get("samples", 10), f"{source}: samples")
-        controller_data = data.get("controller", {})
-        if not isinstance(controller_data, Mapping):
-            raise UsageError(f"{source}: [controller] must be a table")
-        controller_data = merge_engine(data, controller_data, source)
+        controller_data = merge_engine(data, data.get("controller", {}), source)
         known = {f.name for f in fields(ControllerSettings)}
         _no_unknown(controller_data, tuple(known), f"{source}: [controller]")
         try:

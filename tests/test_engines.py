@@ -226,3 +226,22 @@ def test_evaluate_report_names_the_engines_of_mixed_test_data():
     model = train(records, "raw-joints", "knn")
     assert evaluate(model, records)["engines"] == ["bullet", "mujoco"]
     assert "engines" not in evaluate(model, records[::2])  # bullet only: as before engines
+
+
+def test_generate_on_mujoco_and_no_resume_across_engines(tmp_path, capsys):
+    """A dataset says which engine made it, and resuming it with another engine is refused
+    (a resumed run never mixes simulators)."""
+    import json
+
+    from tactile_bullet.cli import main
+    from tactile_bullet.datasets.dataset import read_records, verify
+
+    out = tmp_path / "smoke"
+    argv = ["generate", "--preset", "smoke", "--out", str(out), "--workers", "1", "--json"]
+    assert main([*argv, "--engine", "mujoco"]) == 0
+    assert json.loads(capsys.readouterr().out)["records"] == 4
+    records = read_records(out).records
+    assert {r.controller.engine for r in records} == {"mujoco"}
+    assert verify(out)["engines"] == ["mujoco"]
+    err = run_error(capsys, [*argv, "--resume"])  # bullet now: another dataset
+    assert "holds a different dataset" in err

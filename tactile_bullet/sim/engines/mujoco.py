@@ -255,16 +255,15 @@ class MujocoEngine(Engine):
 
     def _near(self, hand_geoms, fromto) -> bool:
         """Whether any of ``hand_geoms`` is within SWEEP_CLEARANCE of the object (bounding
-        spheres first: most pairs are far apart)."""
+        spheres first, all pairs at once: most pairs are far apart)."""
         mj, m, d = self._mj, self.model, self.data
-        xpos, rbound = d.geom_xpos, m.geom_rbound
-        for g in hand_geoms:
-            for o in self._object_geoms:
-                gap = np.linalg.norm(xpos[g] - xpos[o]) - rbound[g] - rbound[o]
-                if gap > SWEEP_CLEARANCE:
-                    continue
-                if mj.mj_geomDistance(m, d, g, o, SWEEP_CLEARANCE, fromto) < SWEEP_CLEARANCE:
-                    return True
+        hand, obj = np.asarray(hand_geoms), self._object_geoms
+        gaps = np.linalg.norm(d.geom_xpos[hand][:, None] - d.geom_xpos[obj][None], axis=2)
+        gaps -= m.geom_rbound[hand][:, None] + m.geom_rbound[obj][None]
+        for i, j in zip(*np.nonzero(gaps <= SWEEP_CLEARANCE), strict=True):
+            g, o = int(hand[i]), int(obj[j])
+            if mj.mj_geomDistance(m, d, g, o, SWEEP_CLEARANCE, fromto) < SWEEP_CLEARANCE:
+                return True
         return False
 
     def bare_step_rate(self, steps: int) -> float:

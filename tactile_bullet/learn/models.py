@@ -117,6 +117,14 @@ class Model:
             proba = None
         return names, proba
 
+    @property
+    def doubt_margin(self) -> float | None:
+        """The calibrated ambiguity threshold (``learn/doubt.py``); None in a model file
+        written before it existed, which then flags no answer."""
+        from .doubt import model_threshold
+
+        return model_threshold(self.info)
+
 
 def _qualname(kind: type) -> str:
     return f"{kind.__module__}.{kind.__qualname__}"

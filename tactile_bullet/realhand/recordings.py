@@ -222,8 +222,9 @@ def read_recordings(
 
 def identify_grasps(model, grasps: Sequence[RecordedGrasp]) -> list[dict]:
     """The model's answer for every grasp of a recording, features computed in one batch:
-    ``{"index", "file", "start_s", "end_s", "samples", "label", "shape", "probabilities"}``
-    (``label`` the file's or the user's, None when unknown)."""
+    ``{"index", "file", "start_s", "end_s", "samples", "label", "shape", "probabilities",
+    "margin", "ambiguous", "cross_check"}`` (``label`` the file's or the user's, None when unknown;
+    ``margin``/``ambiguous``/``cross_check`` as in ``workflow.identify``)."""
     records = [g.record for g in grasps]
     if not records:
         return []
@@ -234,8 +235,11 @@ def identify_grasps(model, grasps: Sequence[RecordedGrasp]) -> list[dict]:
         proba = np.asarray(model.estimator.predict_proba(features), dtype=float)
     except (AttributeError, NotImplementedError):
         proba = np.array([[float(c == s) for c in classes] for s in shapes])
+    from ..learn.doubt import doubts
+
+    found = doubts(model, records, shapes, proba)
     out = []
-    for g, shape, row in zip(grasps, shapes, proba, strict=True):
+    for g, shape, row, doubt in zip(grasps, shapes, proba, found, strict=True):
         out.append(
             {
                 "index": g.index,
@@ -246,6 +250,7 @@ def identify_grasps(model, grasps: Sequence[RecordedGrasp]) -> list[dict]:
                 "label": None if g.record.shape == UNKNOWN_SHAPE else g.record.shape,
                 "shape": str(shape),
                 "probabilities": {c: float(p) for c, p in zip(classes, row, strict=True)},
+                **doubt,
             }
         )
     return out

@@ -87,9 +87,15 @@ def checked_message(
 class Identifier:
     """Streaming shape identification with a trained model (see the module docstring)."""
 
-    def __init__(self, model, calibration: Calibration | None = None, gap_s: float = GAP_S) -> None:
+    def __init__(
+        self, model, calibration: Calibration | None = None, gap_s: float = GAP_S,
+        cross_check: bool = True,
+    ) -> None:  # fmt: skip
         self.model = model
         self.calibration = calibration
+        self.cross_check = cross_check
+        """Whether the answer at a grasp's end asks the shape fit's second opinion where the
+        model's calibration wants it (``learn/doubt.py``; ~60 ms; False: the margin only)."""
         self._segmenter = GraspSegmenter(gap_s)
         self._maps: dict[tuple[str, ...], JointMap | None] = {}
         self._map: JointMap | None = None
@@ -104,9 +110,10 @@ class Identifier:
         model: str | os.PathLike | Any,
         calibration: str | os.PathLike | Calibration | None = None,
         gap_s: float = GAP_S,
+        cross_check: bool = True,
     ) -> Identifier:
         """An identifier for a saved model file (or a loaded Model); ``calibration`` a TOML
-        path or a :class:`Calibration`."""
+        path or a :class:`Calibration`; ``cross_check`` as in the constructor."""
         from ..learn.models import load_model
         from .calibration import load_calibration
 
@@ -114,7 +121,7 @@ class Identifier:
             model = load_model(model)
         if isinstance(calibration, str | os.PathLike):
             calibration = load_calibration(calibration)
-        return cls(model, calibration, gap_s)
+        return cls(model, calibration, gap_s, cross_check)
 
     def reset(self) -> None:
         """Forget every sample and grasp (a new session)."""
@@ -256,21 +263,31 @@ class Identifier:
 
     def result(self) -> dict[str, Any]:
         """``shape`` (None until the grasp is over), ``probabilities`` (of the grasp so far),
-        ``rotation_deg`` (calibrated object rotation, None where unknown), ``grasp_over``,
+        ``margin``, ``ambiguous`` and ``cross_check`` (as in ``workflow.identify``; None until
+        the grasp is over: the shape fit's cross-check adds ~60 ms then), ``rotation_deg``
+        (calibrated object rotation, None where unknown), ``grasp_over``,
         and ``samples`` (messages in the grasp)."""
         if self._cache is not None:
             return self._cache
         seg = self._segmenter
         record = self.current_record()
         if record is None:
-            doc = {"shape": None, "probabilities": {}, "rotation_deg": None,
-                   "grasp_over": False, "samples": 0}  # fmt: skip
+            doc = {"shape": None, "probabilities": {}, "margin": None, "ambiguous": None,
+                   "cross_check": None, "rotation_deg": None, "grasp_over": False,
+                   "samples": 0}  # fmt: skip
         else:
             over = not seg.closing or seg.settled
             answer, probabilities = self._predict(record, decide=over)
+            doubt = {"margin": None, "ambiguous": None, "cross_check": None}
+            if over and answer is not None:
+                from ..learn.doubt import doubts
+
+                proba = np.array([[probabilities[c] for c in self._classes]])
+                (doubt,) = doubts(self.model, [record], [answer], proba, self.cross_check)
             doc = {
                 "shape": answer if over else None,
                 "probabilities": probabilities,
+                **doubt,
                 "rotation_deg": _rotation(record, answer) if over else None,
                 "grasp_over": over,
                 "samples": int(record.time.size),

@@ -20,7 +20,8 @@ def add_parser(sub) -> None:
     )
     parser.add_argument(
         "--protocol", metavar="NAME,...", default="all",
-        help="in-distribution, unseen-sizes, unseen-poses, sensor-noise, sim-shift, or all",
+        help="in-distribution, unseen-sizes, unseen-poses, sensor-noise, sim-shift, or all "
+        "(default all)",
     )  # fmt: skip
     parser.add_argument("--descriptor", metavar="A,B", help="descriptors (default: all installed)")
     parser.add_argument("--classifier", metavar="X,Y", help="classifiers (default: all installed)")
@@ -43,7 +44,7 @@ def add_parser(sub) -> None:
         "comparison suite's)",
     )  # fmt: skip
     parser.add_argument(
-        "--workers", type=count(1, MAX_WORKERS), default=2, help="simulation processes"
+        "--workers", type=count(1, MAX_WORKERS), default=2, help="simulation processes (default 2)"
     )
     parser.add_argument("--seed", type=seed_number, default=0, help="seed of the perturbations")
     parser.add_argument("--json", action="store_true", help="print the rows as one JSON list")

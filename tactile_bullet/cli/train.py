@@ -17,8 +17,11 @@ def add_parser(sub) -> None:
     )
     parser.add_argument("--data", required=True, metavar="DIR", help="dataset folder or .npz")
     add_allow_partial(parser)
-    parser.add_argument("--descriptor", default="signature", help="descriptor name (a+b joins)")
-    parser.add_argument("--classifier", default="svm", help="classifier name")
+    parser.add_argument(
+        "--descriptor", default="signature",
+        help="descriptor name, a+b joins (default signature)",
+    )
+    parser.add_argument("--classifier", default="svm", help="classifier name (default svm)")
     parser.add_argument(
         "--param", action="append", metavar="KEY=VALUE", help="classifier parameter (repeatable)"
     )

@@ -25,6 +25,7 @@ from ..errors import UsageError
 COMMANDS: tuple[str, ...] = (
     "shapes",
     "shape_info",
+    "make_objects",
     "grasp",
     "generate",
     "verify",

@@ -103,3 +103,11 @@ def test_a_family_from_the_cache_fits_as_computed(cache):
     np.testing.assert_array_equal(cached.grid_geometry, computed.grid_geometry)
     direct = computed._grid_geometry(computed.grid)
     np.testing.assert_array_equal(cached.grid_geometry, direct)
+
+
+def test_without_readable_sources_nothing_is_cached(cache, monkeypatch):
+    monkeypatch.setattr(grid_cache, "code_key", lambda: "")
+    compute = Counting()
+    grid_cache.grid_geometry("sphere", GRID, compute)
+    grid_cache.grid_geometry("sphere", GRID, compute)
+    assert compute.calls == 2 and not cache.exists()

@@ -40,13 +40,17 @@ _SOURCES = (
 @cache
 def code_key() -> str:
     """sha256 over the version, :data:`FORMAT` and the sources in :data:`_SOURCES`: any edit
-    to the model, the shapes, the placement or the hand invalidates every cached grid."""
+    to the model, the shapes, the placement or the hand invalidates every cached grid. ""
+    where the sources cannot be read (an install without .py files): then nothing is cached."""
     import tactile_bullet
 
     root = Path(tactile_bullet.__file__).parent
     digest = hashlib.sha256(f"{tactile_bullet.__version__}\n{FORMAT}\n".encode())
-    for name in _SOURCES:
-        digest.update(name.encode() + b"\n" + (root / name).read_bytes())
+    try:
+        for name in _SOURCES:
+            digest.update(name.encode() + b"\n" + (root / name).read_bytes())
+    except OSError:
+        return ""
     return digest.hexdigest()
 
 
@@ -96,6 +100,8 @@ def grid_geometry(
 ) -> np.ndarray:
     """``compute(grid)`` for ``family``, read from the cache when a valid entry exists, else
     computed and stored."""
+    if not code_key():
+        return np.asarray(compute(grid), dtype=float)
     path = cache_path(family)
     cached = _read(path, grid) if path.is_file() else None
     if cached is not None:

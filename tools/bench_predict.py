@@ -13,7 +13,9 @@ numpy, so its row does not pay for a torch import.
 CLI overhead of one grasp: ``tactile-bullet grasp --shape S --json`` in a fresh process (wall,
 median) minus ``simulate_grasp`` of the same grasp in a warm process (median): imports, plugin
 loading, the shape fit's set-up (read from its disk cache once one run has written it) and the
-answer. The first fresh run warms the cache and is reported apart. Target <= 1.5 s.
+answer. The first fresh run warms the cache and is reported apart. Target <= 1.5 s. CPU
+seconds (user + system, of the child process and of the in-process grasp) are reported beside
+wall seconds: on a shared machine they are the figure that does not move with the load.
 
     python tools/bench_predict.py                  # simulates a small set (about a minute)
     python tools/bench_predict.py --data DIR       # or reads a dataset
@@ -23,6 +25,7 @@ answer. The first fresh run warms the cache and is reported apart. Target <= 1.5
 from __future__ import annotations
 
 import argparse
+import resource
 import shutil
 import statistics
 import subprocess
@@ -58,21 +61,28 @@ def cli_grasp_overhead(runs: int) -> None:
     subprocess.run([*cmd, OVERHEAD_SHAPES[0]], check=True, capture_output=True)
     print(f"first CLI grasp (writes the shape-fit cache if absent): "
           f"{time.perf_counter() - first:.2f} s")  # fmt: skip
-    print(f"{'shape':<10}{'CLI s':>8}{'in-process s':>14}{'overhead s':>12}  "
+    print(f"{'shape':<10}{'CLI s':>8}{'in-process s':>14}{'overhead s':>12}"
+          f"{'CPU: CLI s':>12}{'in-process s':>14}{'overhead s':>12}  "
           f"target <= {OVERHEAD_TARGET_S:g} s")  # fmt: skip
     for shape in OVERHEAD_SHAPES:
-        cli, sim = [], []
+        cli, sim, cli_cpu, sim_cpu = [], [], [], []
         simulate_grasp(shape)  # warm the process: imports, URDF, the shape's mesh
         for _ in range(runs):
+            before = resource.getrusage(resource.RUSAGE_CHILDREN)
             start = time.perf_counter()
             subprocess.run([*cmd, shape], check=True, capture_output=True)
             cli.append(time.perf_counter() - start)
-            start = time.perf_counter()
+            after = resource.getrusage(resource.RUSAGE_CHILDREN)
+            cli_cpu.append(after.ru_utime + after.ru_stime - before.ru_utime - before.ru_stime)
+            start, start_cpu = time.perf_counter(), time.process_time()
             simulate_grasp(shape)
             sim.append(time.perf_counter() - start)
+            sim_cpu.append(time.process_time() - start_cpu)
         c, g = statistics.median(cli), statistics.median(sim)
+        cc, gc = statistics.median(cli_cpu), statistics.median(sim_cpu)
         verdict = "ok" if c - g <= OVERHEAD_TARGET_S else "OVER"
-        print(f"{shape:<10}{c:>8.2f}{g:>14.2f}{c - g:>12.2f}  {verdict}")
+        print(f"{shape:<10}{c:>8.2f}{g:>14.2f}{c - g:>12.2f}"
+              f"{cc:>12.2f}{gc:>14.2f}{cc - gc:>12.2f}  {verdict}")  # fmt: skip
 
 
 def load_records(args):

@@ -39,7 +39,7 @@ def add_parser(sub) -> None:
     parser.add_argument("--resume", action="store_true", help="finish an interrupted run")
     parser.add_argument(
         "--seed", type=seed_number, default=0,
-        help="seed of a random sweep's samples, 0 to 2^32-1 (default 0)",
+        help="seed of a random sweep's draws and of each grasp's record, 0 to 2^32-1 (default 0)",
     )  # fmt: skip
     parser.add_argument(
         "--shard-size", type=count(1, MAX_SHARD_SIZE), default=None,

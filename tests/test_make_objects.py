@@ -43,3 +43,10 @@ def test_unknown_names_and_a_file_as_folder_are_refused(tmp_path, capsys):
     blocker = tmp_path / "file"
     blocker.write_text("x")
     assert "not a folder" in run_error(capsys, ["make-objects", "--out", str(blocker)])
+
+
+def test_the_json_document_lists_every_file_written(tmp_path, capsys):
+    assert main(["make-objects", "--out", str(tmp_path), "--only", "egg", "--json"]) == 0
+    doc = json.loads(capsys.readouterr().out)
+    assert set(doc) == {"out", "objects", "files"}
+    assert sorted(doc["files"]) == sorted(str(p) for p in tmp_path.iterdir())

@@ -7,10 +7,15 @@ document.
 
 from __future__ import annotations
 
+import contextlib
 import json
 import sys
-from collections.abc import Iterable
+import time
+from collections.abc import Iterable, Iterator
 from typing import Any
+
+PROGRESS_EVERY_S = 5.0
+"""Plain progress lines come at most this often (s); work shorter than this prints none."""
 
 
 def emit_json(doc: Any) -> None:
@@ -33,9 +38,62 @@ def log_lines(json_mode: bool) -> bool:
     return not json_mode or not sys.stderr.isatty()
 
 
+class _Lines:
+    """Rate-limited ``desc: done/total (pct), elapsed`` lines on stderr, per ``desc``."""
+
+    def __init__(self) -> None:
+        self.start: dict[str, float] = {}
+        self.last: dict[str, float] = {}
+        self.done: dict[str, int] = {}
+
+    def __call__(self, desc: str, done: int, total: int | None) -> None:
+        now = time.monotonic()
+        if desc not in self.start or done < self.done.get(desc, 0):  # a new loop of that name
+            self.start[desc] = self.last[desc] = now
+        self.done[desc] = done
+        if now - self.last[desc] < PROGRESS_EVERY_S:
+            return
+        self.last[desc] = now
+        share = f"/{total} ({100.0 * done / total:.0f}%)" if total else ""
+        print(f"{desc}: {done}{share}, {now - self.start[desc]:.0f} s", file=sys.stderr,
+              flush=True)  # fmt: skip
+
+
+_reporter: _Lines | None = None
+
+
+@contextlib.contextmanager
+def reporting(enabled: bool) -> Iterator[None]:
+    """While active (and ``enabled``), :func:`tick` prints progress lines: the CLI turns it on
+    where :func:`log_lines` says a person or a log should see them, so loops deep in the
+    library (a classifier's epochs, an experiment's steps) report without knowing who runs
+    them; library callers see nothing unless they ask."""
+    global _reporter
+    previous = _reporter
+    _reporter = _Lines() if enabled else None
+    try:
+        yield
+    finally:
+        _reporter = previous
+
+
+def tick(desc: str, done: int, total: int | None = None) -> None:
+    """``done`` of ``total`` steps of the loop ``desc`` are finished (see :func:`reporting`)."""
+    if _reporter is not None:
+        _reporter(desc, done, total)
+
+
+def _ticking(iterable: Iterable, total: int | None, desc: str) -> Iterator:
+    for done, item in enumerate(iterable, 1):
+        yield item
+        tick(desc, done, total)
+
+
 def progress(iterable: Iterable, total: int | None, desc: str, enabled: bool) -> Iterable:
+    """A tqdm bar where ``enabled`` (a person at a terminal); otherwise plain lines while
+    :func:`reporting` is on (a log, CI), so long loops are never silent."""
     if not enabled:
-        return iterable
+        return _ticking(iterable, total, desc) if _reporter is not None else iterable
     from tqdm import tqdm
 
     return tqdm(iterable, total=total, desc=desc, unit="grasp", file=sys.stderr)

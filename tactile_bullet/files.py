@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import contextlib
 import os
+import stat
 from collections.abc import Iterable, Iterator
 from pathlib import Path
 from typing import Any
@@ -31,6 +32,7 @@ def atomic_path(
     becomes a UsageError naming ``what`` and the path.
     """
     path = Path(path)
+    refuse_special(path, what)
     tmp = path.with_name(f".{path.stem}.{os.getpid()}.tmp{path.suffix}")
     try:
         yield tmp
@@ -44,6 +46,52 @@ def atomic_path(
         raise UsageError(f"cannot write {what} {path}: {exc.strerror or exc}") from None
     finally:
         tmp.unlink(missing_ok=True)
+
+
+_SPECIAL = (
+    (stat.S_ISLNK, "a symbolic link"),
+    (stat.S_ISCHR, "a character device"),
+    (stat.S_ISBLK, "a block device"),
+    (stat.S_ISFIFO, "a FIFO"),
+    (stat.S_ISSOCK, "a socket"),
+)
+
+
+def refuse_special(path: str | os.PathLike, what: str = "output") -> None:
+    """Refuse an existing ``path`` that is not a regular file or a folder: renaming a new file
+    over a device, FIFO, socket or symbolic link would replace the node itself (``/dev/null``
+    run as root becomes a regular file; a link stops pointing where the user keeps the data),
+    which ``--force`` never means."""
+    try:
+        mode = os.lstat(path).st_mode
+    except FileNotFoundError:
+        return
+    except OSError as exc:
+        raise UsageError(f"cannot inspect {what} {path}: {exc.strerror or exc}") from None
+    for test, kind in _SPECIAL:
+        if test(mode):
+            raise UsageError(
+                f"{what} {path} is {kind}, not a regular file: not replacing it "
+                "(name a regular file or a new path)"
+            )
+
+
+def not_a_file(path: str | os.PathLike) -> str | None:
+    """Why ``path`` cannot be read as a file ("does not exist", "is a folder", "is a FIFO,
+    not a regular file", ...), or None for a regular file (links followed): an input that is
+    there but of the wrong kind is never reported as missing."""
+    try:
+        mode = os.stat(path).st_mode
+    except FileNotFoundError:
+        return "does not exist"
+    except OSError as exc:
+        return f"cannot be read ({exc.strerror or exc})"
+    if stat.S_ISREG(mode):
+        return None
+    if stat.S_ISDIR(mode):
+        return "is a folder, not a file"
+    kind = next((k for test, k in _SPECIAL if test(mode)), "a special file")
+    return f"is {kind}, not a regular file"
 
 
 def write_bytes_atomic(
@@ -73,7 +121,11 @@ def existing_outputs(
     """Refuse (unless ``force``) a folder that already holds any of the files a command would
     write there: an earlier report or figure is kept unless the user asks otherwise."""
     folder = Path(folder)
-    if force or not folder.is_dir():
+    if not folder.is_dir():
+        return
+    for name in names:
+        refuse_special(folder / name, what)
+    if force:
         return
     found = sorted(n for n in names if (folder / n).exists())
     if found:
@@ -98,6 +150,16 @@ def probe_folder(folder: str | os.PathLike, what: str) -> Path:
     except OSError as exc:
         raise UsageError(f"{what} {folder} is not writable ({exc.strerror or exc})") from None
     return folder
+
+
+def load_failure(exc: BaseException) -> str:
+    """The first line of why numpy (or zipfile) could not read an ``.npz``, for a one-line
+    error. Where numpy took the file for a pickle it advises loading it "unsafely using
+    allow_pickle": this project never unpickles, so that advice is replaced by what is true."""
+    text = str(exc).strip()
+    if "pickle" in text.lower():
+        return "not an .npz archive; pickled data is never loaded"
+    return text.splitlines()[0] if text else type(exc).__name__
 
 
 def json_value(value: Any) -> Any:

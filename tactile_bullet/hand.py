@@ -86,6 +86,31 @@ J0_MAX: float = float(np.pi)
 """Range of the coupled J0 = J1 + J2 (rad)."""
 
 
+_LONG_LIMITS_DEG = {"J4": (-20.0, 20.0), "J3": (-15.0, 90.0), "J2": (0.0, 90.0),
+                    "J1": (0.0, 90.0)}  # fmt: skip
+JOINT_LIMITS_DEG: dict[str, tuple[float, float]] = {
+    "WRJ2": (-30.0, 10.0), "WRJ1": (-40.0, 28.0),
+    **{f"{f.upper()}{k}": lim for f in LONG_FINGERS for k, lim in _LONG_LIMITS_DEG.items()},
+    "LFJ5": (0.0, 45.0),
+    "THJ5": (-60.0, 60.0), "THJ4": (0.0, 70.0), "THJ3": (-12.0, 12.0), "THJ2": (-40.0, 40.0),
+    "THJ1": (-15.0, 90.0),
+    **{f"{f.upper()}J0": (0.0, 180.0) for f in LONG_FINGERS},
+}  # fmt: skip
+"""Each joint's range (deg, docs/hand.md; the URDF's), the coupled J0 = J1 + J2 included."""
+
+RANGE_TOLERANCE_RAD: float = 0.35
+"""How far (rad, 20 deg) a recorded joint may lie outside its range before the recording is
+refused as garbage (docs/hand.md, "Recorded joint ranges"): a real hand's uncalibrated sensors
+read several degrees past the limits, but a value tens of degrees out is a unit mistake, a
+wrong column or corruption, and an answer computed from it would be confident nonsense."""
+
+
+def joint_range(name: str) -> tuple[float, float]:
+    """(lowest, highest) value (rad) a recording may hold for canonical joint ``name``."""
+    lo, hi = JOINT_LIMITS_DEG[name]
+    return np.radians(lo) - RANGE_TOLERANCE_RAD, np.radians(hi) + RANGE_TOLERANCE_RAD
+
+
 def finger_of_joint(name: str) -> str | None:
     """The finger ('ff' ... 'th') a joint belongs to, None for the wrist."""
     prefix = name[:2].lower()

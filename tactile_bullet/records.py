@@ -334,8 +334,9 @@ def load_record(path: str | Path) -> GraspRecord:
         raise UsageError(f"record file {path} does not exist") from None
     except (OSError, ValueError, KeyError, EOFError, zipfile.BadZipFile, zlib.error) as exc:
         # a truncated or damaged file (BadZipFile, EOFError, zlib.error) is bad input too
-        why = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
-        raise UsageError(f"{path} is not a readable grasp record ({why})") from None
+        from .files import load_failure
+
+        raise UsageError(f"{path} is not a readable grasp record ({load_failure(exc)})") from None
     try:
         return record_from_parts(meta, arrays)
     except UsageError as exc:

@@ -125,7 +125,10 @@ def main(argv: list[str] | None = None) -> int:
     except ValueError:  # main() called from another thread: leave signals to the host
         previous = None
     try:
-        return int(args.run(args) or 0)
+        from ..console import log_lines, reporting
+
+        with reporting(log_lines(bool(getattr(args, "json", False)))):
+            return int(args.run(args) or 0)
     except UsageError as exc:
         print(f"tactile-bullet {args.command}: error: {exc}", file=sys.stderr)
         return 2

@@ -66,8 +66,11 @@ def estimator_params(items: Sequence[str] | None, what: str = "--param") -> dict
 def writable_file(path: str | os.PathLike, what: str = "output", force: bool = False) -> Path:
     """Check up front that ``path`` can be written, so long work is not lost at the end; an
     existing file is refused unless ``force`` (nothing on disk is overwritten unasked)."""
+    from ..files import probe_folder, refuse_special
+
     path = Path(path)
     parent = path.parent if str(path.parent) else Path(".")
+    refuse_special(path, what)
     if path.is_dir():
         raise UsageError(f"{what} path {path} is a directory")
     if not parent.is_dir():
@@ -76,8 +79,6 @@ def writable_file(path: str | os.PathLike, what: str = "output", force: bool = F
         raise UsageError(f"{what} {path} already exists; add --force to overwrite it")
     if path.exists() and not os.access(path, os.W_OK):
         raise UsageError(f"{what} path {path} is not writable")
-    from ..files import probe_folder
-
     probe_folder(parent, f"{what} directory")
     return path
 

@@ -26,6 +26,11 @@ def add_recording_options(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--calibration", metavar="FILE.toml", help="per-joint offsets and scales (TOML)"
     )
+    parser.add_argument(
+        "--prefix", metavar="PREFIX",
+        help="the hand to read where a file holds two (rh_, lh_; 'none' for unprefixed "
+        "names); a file of two hands is refused without it",
+    )  # fmt: skip
 
 
 def recording_options(args: argparse.Namespace) -> dict:
@@ -36,7 +41,10 @@ def recording_options(args: argparse.Namespace) -> dict:
     if gap <= 0:
         raise UsageError(f"--gap must be positive, got {args.gap}")
     calibration = load_calibration(args.calibration) if args.calibration else None
-    return {"topic": args.topic, "marker": args.marker, "gap_s": gap, "calibration": calibration}
+    from ..realhand.names import prefix_option
+
+    return {"topic": args.topic, "marker": args.marker, "gap_s": gap, "calibration": calibration,
+            "prefix": prefix_option(args.prefix)}  # fmt: skip
 
 
 def add_parser(sub) -> None:
@@ -83,6 +91,7 @@ def run(args: argparse.Namespace) -> int:
         "marker": args.marker,
         "gap_s": options["gap_s"],
         "shape": args.shape,
+        "prefix": options["prefix"],
         "calibration": options["calibration"].to_dict() if options["calibration"] else None,
     }
     doc = write_dataset(records, args.out, origin, force=args.force)

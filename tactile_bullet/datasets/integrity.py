@@ -252,8 +252,9 @@ def _decoded_problem(
 
 
 def _first_line(exc: BaseException) -> str:
-    text = str(exc).strip()
-    return text.splitlines()[0] if text else type(exc).__name__
+    from ..files import load_failure
+
+    return load_failure(exc)
 
 
 def read_manifest(folder: Path) -> dict[str, Any]:

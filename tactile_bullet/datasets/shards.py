@@ -107,5 +107,30 @@ def software_versions() -> dict[str, str]:
     return out
 
 
+_OWN_FILE = re.compile(r"shard-\d{5}\.npz|\.shard-\d{5}\..*\.tmp\.npz|\.manifest\..*\.tmp\.json")
+"""Files a dataset folder holds besides its manifest and lock: shards, and the temporary
+files of a killed writer."""
+
+
+def foreign_in_dataset(folder: Path) -> str | None:
+    """The first entry of a dataset ``folder`` this project did not write (a user's notes, a
+    web app's files beside a ``manifest.json`` of its own), or None: what ``--force`` may
+    replace is a folder of our manifest, shards and lock only."""
+    try:
+        manifest = json.loads((folder / MANIFEST).read_text(encoding="utf-8"))
+    except (OSError, ValueError):
+        return f"{MANIFEST} (not a dataset manifest)"
+    if not isinstance(manifest, dict) or manifest.get("format") != FORMAT or not isinstance(
+        manifest.get("shards"), list
+    ):
+        return f"{MANIFEST} (not a dataset manifest)"
+    for entry in sorted(folder.iterdir()):
+        if entry.name in (MANIFEST, LOCK):
+            continue
+        if entry.is_symlink() or not entry.is_file() or not _OWN_FILE.fullmatch(entry.name):
+            return entry.name
+    return None
+
+
 def shard_name(block: int) -> str:
     return f"shard-{block:05d}.npz"

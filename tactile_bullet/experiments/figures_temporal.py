@@ -67,6 +67,11 @@ def plot_detectors(scores: dict, path: Path) -> Path:
     measured = scores["measured_non_contact"]
     for ax, method in zip(axes, ("position", "dynamic"), strict=True):
         s = scores[method]
+        if measured is None:  # recorded grasps: no contact truth to split right from wrong
+            ax.bar([0], [s["detected_non_contact"]], color="tab:blue", label="detected")
+            ax.set_xticks([0], ["detected"])
+            ax.set_title(f"{method}-based (no contact truth:\nrecorded grasps)", fontsize=9)
+            continue
         right = [s["detected_right"], s["measured_found"]]
         wrong = [s["false_non_contact"], s["missed_non_contact"]]
         ax.bar([0, 1], right, color="tab:blue", label="right")

@@ -78,7 +78,10 @@ def run_order(
         "recall": np.full((n_classes, n_classes), np.nan),  # step x class
         "seconds": [],
     }
+    from ..console import tick
+
     for step, label in enumerate(order):
+        tick(f"sequential order (seed {seed}): classes learnt", step, n_classes)
         known = order[: step + 1]
         train, test = np.isin(y_train, known), np.isin(y_test, known)
         new = y_train == label

@@ -16,6 +16,7 @@ import numpy as np
 
 from ..errors import UsageError
 from ..perception.temporal import DETECTORS, contact_truth, detect, finger_areas, g_of, gbin
+from ..realhand.names import UNKNOWN_SHAPE
 
 CENTRED_MM = 10.0
 """An object moved at most this far along O-O' counts as centred (the thesis preset's range)."""
@@ -57,10 +58,24 @@ def detector_scores(records: Sequence) -> dict[str, Any]:
     """Per detector: per-finger agreement with the records' contacts, the counts behind Figs
     3.6/3.9 (detected non-contact, measured non-contact, and the right ones of each), and per
     grasp the time each decided every finger."""
-    truth = np.array([contact_truth(r) for r in records])
-    out: dict[str, Any] = {"grasps": len(records), "fingers": int(truth.size)}
-    out["measured_non_contact"] = int((~truth).sum())
+    measured = has_contact_truth(records)
+    out: dict[str, Any] = {"grasps": len(records), "fingers": 4 * len(records)}
+    out["contact_truth"] = measured
     times = {}
+    if not measured:  # a real hand's recording: what the detectors say, judged against nothing
+        out["measured_non_contact"] = None
+        for method in DETECTORS:
+            dets = [detect(r, method) for r in records]
+            pred = np.array([d.contact_mask for d in dets])
+            times[method] = np.array([d.decided_at_s for d in dets])
+            out[method] = {"agreement": None, "detected_non_contact": int((~pred).sum())}
+            out[method].update(dict.fromkeys(_JUDGED))
+        saved = times["position"] - times["dynamic"]
+        out["decision_saved_s"] = {"all": _stats(saved), "grasps_with_non_contact_finger": None}
+        out["_saved"], out["_with_miss"] = saved, np.zeros(len(records), bool)
+        return out
+    truth = np.array([contact_truth(r) for r in records])
+    out["measured_non_contact"] = int((~truth).sum())
     for method in DETECTORS:
         dets = [detect(r, method) for r in records]
         pred = np.array([d.contact_mask for d in dets])
@@ -84,6 +99,17 @@ def detector_scores(records: Sequence) -> dict[str, Any]:
     return out
 
 
+_JUDGED = ("detected_right", "measured_found", "false_non_contact", "missed_non_contact")
+"""Detector counts that need the measured contacts (null without them)."""
+
+
+def has_contact_truth(records: Sequence) -> bool:
+    """Whether the records carry measured contacts to judge the detectors by: simulated
+    grasps do; a real hand's recordings (``source`` "recorded") have no contact sensing, so
+    their empty contact lists mean unknown, not "every finger off the object"."""
+    return all(getattr(r, "source", "simulated") == "simulated" for r in records)
+
+
 def _stats(values: np.ndarray) -> dict[str, float]:
     if values.size == 0:
         return {"n": 0}
@@ -104,14 +130,16 @@ def svm_scores(records: Sequence, seeds: Sequence[int] = (0, 1, 2), test_fractio
     """SVM, SVM_pos and SVM_dyn (signature + svm, ``correction`` none / position / dynamic) on
     the same held-out splits: mean accuracy overall, on centred and on off-centre objects,
     and the first split's confusion matrices."""
+    from ..console import tick
     from .reports import class_order, confusion_matrix
     from .workflow import labels_of, predict, split, train
 
     scores: dict[str, Any] = {}
     matrices: dict[str, Any] = {}
-    for correction in ("none", "position", "dynamic"):
+    for c, correction in enumerate(("none", "position", "dynamic")):
         acc = {"all": [], "centred": [], "off_centre": []}
         for k, seed in enumerate(seeds):
+            tick("SVM, SVM_pos, SVM_dyn splits trained", c * len(seeds) + k, 3 * len(seeds))
             tr, te = split(records, test_fraction, seed)
             model = train(tr, "signature", "svm", None, {"correction": correction})
             y, p = labels_of(te), predict(model, te)
@@ -141,12 +169,16 @@ def dtw_scores(records: Sequence, correction: str = "dynamic") -> dict[str, Any]
     lib = size_matched_library()
     out: dict[str, Any] = {}
     dropped = np.array([not detect(r, correction).contact_mask.all() for r in records])
+    from ..console import tick
+
     for label, method in (("raw", "none"), ("corrected", correction)):
         own, other, right = [], [], []
-        for r in records:
+        for i, r in enumerate(records):
+            tick(f"DTW distances ({label} signatures)", i, len(records))
             keep = np.ones(4, bool) if method == "none" else detect(r, method).contact_mask
             ident, keep = identify_masked(r.fci_angles(), keep)
-            right.append(ident.name == r.shape)
+            # an unlabelled recording is neither right nor wrong
+            right.append(None if r.shape == UNKNOWN_SHAPE else ident.name == r.shape)
             sig = corrected_signature(r.fci_angles(), keep)
             use = lib
             if r.shape not in use:
@@ -154,11 +186,12 @@ def dtw_scores(records: Sequence, correction: str = "dynamic") -> dict[str, Any]
             for name, family in use.items():
                 d = signature_distance(sig, closest_in_size(sig, family))
                 (own if name == r.shape else other).append(d)
-        right = np.array(right, dtype=bool)
+        labelled = np.array([v is not None for v in right], dtype=bool)
+        right = np.array([bool(v) for v in right], dtype=bool)
         out[label] = {
-            "identified": float(np.mean(right)) if right.size else None,
+            "identified": float(np.mean(right[labelled])) if labelled.any() else None,
             "identified_where_a_finger_was_dropped": (
-                float(np.mean(right[dropped])) if dropped.any() else None
+                float(np.mean(right[dropped & labelled])) if (dropped & labelled).any() else None
             ),
             "own_median": float(np.median(own)) if own else None,
             "other_median": float(np.median(other)) if other else None,
@@ -220,18 +253,26 @@ def run_experiment(
 def summary_text(doc: dict[str, Any]) -> str:
     """What ``tactile-bullet temporal`` prints without --json."""
     det = doc["detectors"]
-    lines = [
-        f"{doc['records']} grasps, {det['fingers']} fingers, "
-        f"{det['measured_non_contact']} of them out of contact at the end",
-    ]
-    for m in DETECTORS:
+    if not det.get("contact_truth", True):
+        lines = [
+            f"{doc['records']} grasps, {det['fingers']} fingers: recorded grasps carry no "
+            "contact truth, so the detectors' output is shown without an agreement figure",
+        ]
+        lines += [f"  {m:8s}: {det[m]['detected_non_contact']} fingers flagged out of contact"
+                  for m in DETECTORS]  # fmt: skip
+    else:
+        lines = [
+            f"{doc['records']} grasps, {det['fingers']} fingers, "
+            f"{det['measured_non_contact']} of them out of contact at the end",
+        ]
+    for m in DETECTORS if det.get("contact_truth", True) else ():
         d = det[m]
         lines.append(
             f"  {m:8s}: {100 * d['agreement']:.1f}% per-finger agreement with the contacts "
             f"({d['detected_non_contact']} flagged, {d['false_non_contact']} wrongly; "
             f"{d['missed_non_contact']} missed)"
         )
-    s = det["decision_saved_s"]["grasps_with_non_contact_finger"]
+    s = det["decision_saved_s"]["grasps_with_non_contact_finger"] or {}
     if s.get("n"):
         lines.append(
             f"  dynamic decides {s['median']:.2f} s earlier (median over {s['n']} grasps with a "
@@ -244,9 +285,10 @@ def summary_text(doc: dict[str, Any]) -> str:
                      if v.get(k)]  # fmt: skip
             lines.append(f"  {label:8s}: " + ", ".join(parts))
     d = doc["dtw"]
-    lines.append(
-        f"  training-free DTW: {100 * d['raw']['identified']:.1f}% raw, "
-        f"{100 * d['corrected']['identified']:.1f}% corrected ({d['correction']})"
-    )
+    if d["raw"]["identified"] is not None:  # None: no grasp is labelled with its shape
+        lines.append(
+            f"  training-free DTW: {100 * d['raw']['identified']:.1f}% raw, "
+            f"{100 * d['corrected']['identified']:.1f}% corrected ({d['correction']})"
+        )
     lines.append(f"wrote {len(doc['outputs'])} files")
     return "\n".join(lines) + "\n"

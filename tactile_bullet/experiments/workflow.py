@@ -262,10 +262,13 @@ def compare(
     # resolve every name up front so a typo fails before minutes of fitting
     descs = [get_descriptor(d) for d in descriptors]
     _check_classifiers(classifiers)
+    from ..console import tick
+
     rows = []
     for desc in descs:
         x_train, x_test = desc.transform(train_records), desc.transform(test_records)
         for name in classifiers:
+            tick("descriptor x classifier pairs fitted", len(rows), len(descs) * len(classifiers))
             reason = _incompatible(desc.name, name)
             if reason:
                 rows.append(_skipped_row(desc.name, name, reason, train_records, test_records))
@@ -492,6 +495,8 @@ def demo(
     save_records(train_records, out / "train", force)
     save_records(test_records, out / "test", force)
 
+    say(f"simulated {len(test_records)} test grasps; training signature + svm and comparing "
+        f"{len(classifiers)} classifiers")  # fmt: skip
     model = train(train_records, "signature", "svm")
     model.info.update({"made_by": "demo", "seed": int(seed), "train_records": len(train_records)})
     model_path = save_model(out / "model.npz", model)
@@ -510,6 +515,7 @@ def demo(
         "by_size": result.get("by_size", {}),
         "by_position": result.get("by_position", {}),
         "by_rotation": result.get("by_rotation", {}),
+        "bins": result.get("bins", {}),
         "train_records": len(train_records),
         "test_records": len(test_records),
         "refused_poses": len(train_set.refused) + len(test_set.refused),

@@ -184,8 +184,9 @@ def _read(path: Path) -> tuple[dict, dict[str, np.ndarray]]:
 
 
 def _reason(exc: BaseException) -> str:
-    text = str(exc).strip().splitlines()
-    return text[0] if text else type(exc).__name__
+    from ..files import load_failure
+
+    return load_failure(exc)
 
 
 def _field(meta: dict, key: str, path: Path) -> tuple[str, dict]:

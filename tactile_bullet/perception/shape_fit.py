@@ -460,7 +460,13 @@ def predicted_angles(
 
 def shape_fit_summary(record) -> dict | None:
     """The ``shape_fit`` block of ``grasp --json`` for one record ({"shape", "params",
-    "offset_m", "residual", "scores"}), or None where its angles cannot be fitted."""
+    "offset_m", "residual", "scores"}), or None where its angles cannot be fitted or the grasp
+    touched too little (``contact.nothing_to_identify``: the angles of fingers that closed on
+    air would still fit some family best, and a shape name there would be a guess)."""
+    from .contact import nothing_to_identify
+
+    if nothing_to_identify(record) is not None:
+        return None
     try:
         return fit_shape(record.fci_angles()).summary()
     except UsageError:

@@ -16,7 +16,14 @@ from ..errors import UsageError
 from ..hand import JOINT_NAMES
 from .calibration import Calibration
 from .joints import JointMap, JointSamples, _check_finite, _check_time
-from .names import DEFAULT_TOPIC, JOINT_STATE, MARKER_TOPIC, NO_MARKER, is_hand_message
+from .names import (
+    DEFAULT_TOPIC,
+    JOINT_STATE,
+    MARKER_TOPIC,
+    NO_MARKER,
+    hand_prefix,
+    is_hand_message,
+)  # fmt: skip
 
 # --- bags ---------------------------------------------------------------------------------------
 
@@ -48,8 +55,11 @@ def read_bag(
     topic: str = DEFAULT_TOPIC,
     marker: str | None = None,
     calibration: Calibration | None = None,
+    prefix: str | None = None,
 ) -> JointSamples:
-    """Joint states on ``topic`` (and grasp markers on ``marker``) of a ROS 1 or ROS 2 bag."""
+    """Joint states on ``topic`` (and grasp markers on ``marker``) of a ROS 1 or ROS 2 bag;
+    one hand's: ``prefix`` ("rh") picks it where the bag holds two, which is refused
+    otherwise (two hands' samples interleaved make nonsense grasps)."""
     _rosbags()
     from rosbags.highlevel import AnyReader
     from rosbags.typesys import Stores, get_typestore
@@ -95,7 +105,18 @@ def read_bag(
                         continue
                     current = maps.get(names)
                     if current is None:
+                        hand = hand_prefix(names)
+                        if prefix is not None and hand != prefix:
+                            others.add(names)  # the other hand, not chosen
+                            continue
                         current = maps[names] = JointMap(names, calibration, where)
+                        hands = sorted({m.prefix.lower() for m in maps.values()})
+                        if len(hands) > 1:
+                            shown = ", ".join(repr(h + "_" if h else "(none)") for h in hands)
+                            raise UsageError(
+                                f"{where} holds joint states of two hands ({shown}): "
+                                f"choose one with --prefix {hands[-1] or 'none'}_"
+                            )
                 position, effort = msg.position, msg.effort
                 if len(position) != len(names):
                     raise UsageError(
@@ -118,6 +139,8 @@ def read_bag(
         ) from None
     if not pos_rows:
         what = "no Shadow hand joints" if others else "no messages"
+        if prefix is not None and others:
+            what = f"no joint states of hand prefix {prefix + '_' if prefix else '(none)'!r}"
         raise UsageError(f"{where}: topic {topic} holds {what}")
     stamp_ns = np.array(stamps, np.int64)
     recv_ns = np.array(receive, np.int64)
@@ -130,11 +153,12 @@ def read_bag(
     for jmap in maps.values():  # one batch per distinct name list (usually one)
         rows = [k for k, m in enumerate(keys) if m is jmap] if len(maps) > 1 else slice(None)
         chosen = pos_rows if len(maps) == 1 else [pos_rows[k] for k in rows]
-        angles[rows] = jmap.positions(np.array(chosen, float))
+        angles[rows] = jmap.positions(np.array(chosen, float), time[rows])
         if has_eff:
             chosen = eff_rows if len(maps) == 1 else [eff_rows[k] for k in rows]
             efforts[rows] = jmap.efforts(np.array(chosen, float))
     _check_finite(angles, where, "joint positions")
+    _check_finite(efforts, where, "efforts")
     origin = int(recv_ns[0])
     windows = None
     if marker_topic is not None:

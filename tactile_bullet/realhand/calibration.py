@@ -38,6 +38,9 @@ class Calibration:
 
     offsets: Mapping[str, float] = field(default_factory=dict)
     scales: Mapping[str, float] = field(default_factory=dict)
+    prefix: str = ""
+    """The hand prefix its entries name (``rh``), "" when they name none: a recording of
+    another hand is refused rather than corrected with this hand's numbers."""
 
     def vectors(self, names: tuple[str, ...]) -> tuple[np.ndarray, np.ndarray]:
         """(scale, offset) arrays aligned with canonical ``names``: identity where absent."""
@@ -55,7 +58,7 @@ class Calibration:
 
 def calibration_from_dict(doc: Mapping, source: str = "calibration") -> Calibration:
     """Validate a ``{"joints": {name: {offset|offset_deg, scale}}}`` table."""
-    from .names import canonical_joint
+    from .names import canonical_joint, split_name
 
     if not isinstance(doc, Mapping) or set(doc) - {"joints"}:
         extra = sorted(set(doc) - {"joints"}) if isinstance(doc, Mapping) else ["?"]
@@ -65,10 +68,19 @@ def calibration_from_dict(doc: Mapping, source: str = "calibration") -> Calibrat
         raise UsageError(f"{source}: [joints] must be a table")
     offsets: dict[str, float] = {}
     scales: dict[str, float] = {}
+    prefixes: set[str] = set()
     for raw_name, entry in joints.items():
         name = canonical_joint(raw_name)
         if name is None:
             raise UsageError(f"{source}: unknown joint {raw_name!r}")
+        hand = split_name(raw_name)[0].lower()
+        if hand and prefixes and hand not in prefixes:
+            raise UsageError(
+                f"{source}: joints.{raw_name} is for hand {hand!r}, an earlier entry for "
+                f"{sorted(prefixes)[0]!r}: one hand per calibration file"
+            )
+        if hand:
+            prefixes.add(hand)
         if not isinstance(entry, Mapping):
             raise UsageError(
                 f"{source}: joints.{raw_name} must be a table like {{ offset = 0.01 }}"
@@ -97,7 +109,7 @@ def calibration_from_dict(doc: Mapping, source: str = "calibration") -> Calibrat
         if name in offsets:
             raise UsageError(f"{source}: joint {name} is calibrated twice")
         offsets[name], scales[name] = offset, scale
-    return Calibration(offsets, scales)
+    return Calibration(offsets, scales, next(iter(prefixes), ""))
 
 
 def _number(value, what: str) -> float:

@@ -26,6 +26,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import UsageError
+from ..files import refuse_special
 from ..hand import JOINT_NAMES, LONG_FINGERS
 from ..records import GraspRecord
 from .names import DEFAULT_TOPIC, LABEL_COLUMN, MARKER_COLUMN, MARKER_TOPIC, TIME_COLUMN
@@ -93,15 +94,48 @@ def check_out(out: Path, fmt: str, force: bool) -> None:
         raise UsageError(f"--out folder {parent} does not exist")
     if not os.access(parent, os.W_OK):
         raise UsageError(f"--out folder {parent} is not writable")
+    refuse_special(out, "--out")
     if not out.exists():
         return
     if not force:
         raise UsageError(f"--out {out} exists; use --force to replace it")
     if fmt in ("db3", "mcap"):
-        if not (out.is_dir() and (out / "metadata.yaml").is_file()):
-            raise UsageError(f"--out {out} exists and is not a ROS 2 bag: not replacing it")
+        foreign = foreign_in_ros2_bag(out)
+        if foreign:
+            raise UsageError(
+                f"--out {out} holds {foreign}, which is not part of a ROS 2 bag: "
+                "not replacing it (choose another folder)"
+            )
     elif out.is_dir():
         raise UsageError(f"--out {out} is a folder")
+
+
+_BAG_META = "metadata.yaml"
+_BAG_STORAGE = (".db3", ".mcap", ".db3-wal", ".db3-shm", ".db3-journal")
+
+
+def foreign_in_ros2_bag(folder: Path) -> str | None:
+    """The first entry of ``folder`` that a ROS 2 bag does not hold, or None for a bag that
+    ``--force`` may replace whole: a ``metadata.yaml`` of bag information and the storage files
+    it lists, nothing else (a user's ``metadata.yaml`` beside a ``thesis.tex`` is not a bag)."""
+    if not folder.is_dir():
+        return f"{folder.name} (a file, not a bag folder)"
+    meta = folder / _BAG_META
+    try:
+        text = meta.read_text(encoding="utf-8", errors="replace") if meta.is_file() else ""
+    except OSError:
+        text = ""
+    if not text.lstrip().startswith("rosbag2_bagfile_information:"):
+        return f"{_BAG_META} of no ROS 2 bag" if meta.exists() else f"no {_BAG_META}"
+    for entry in sorted(folder.iterdir()):
+        if entry.name == _BAG_META:
+            continue
+        if entry.is_symlink() or not entry.is_file() or not entry.name.endswith(_BAG_STORAGE):
+            return entry.name
+        stem = entry.name.split(".db3")[0] if ".db3" in entry.name else entry.name
+        if stem not in text:
+            return entry.name
+    return None
 
 
 def export(

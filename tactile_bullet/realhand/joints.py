@@ -15,7 +15,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..errors import UsageError
-from ..hand import JOINT_NAMES, LONG_FINGERS
+from ..hand import JOINT_NAMES, LONG_FINGERS, joint_range
 from .calibration import Calibration
 from .names import COUPLED_FINGERS, OPTIONAL_JOINTS, split_name
 
@@ -41,7 +41,8 @@ class JointMap:
         parts = [split_name(n) for n in self.names]
         unknown = [n for n, p in zip(self.names, parts, strict=True) if p is None]
         if unknown:
-            raise UsageError(f"{where}unknown joint names: {', '.join(unknown)}")
+            shown = ", ".join(n if n.isascii() else f"{ascii(n)} (not ASCII)" for n in unknown)
+            raise UsageError(f"{where}unknown joint names: {shown}")
         prefixes = sorted({p[0] for p in parts if p is not None})
         if len(prefixes) > 1:
             shown = ", ".join(repr(p or "(none)") for p in prefixes)
@@ -80,14 +81,26 @@ class JointMap:
         self._j0 = np.array(j0_src, int)
         self._j2 = np.array(j2_dst, int)
         self._j1 = np.array(j1_dst, int)
-        self._scale, self._offset = (calibration or Calibration()).vectors(self.canonical)
+        calibration = calibration or Calibration()
+        if calibration.prefix and calibration.prefix != self.prefix.lower():
+            raise UsageError(
+                f"{where}the calibration is for hand prefix {calibration.prefix!r}, the "
+                f"recording's joints carry {self.prefix or '(none)'!r}: one hand per file"
+            )
+        self._scale, self._offset = calibration.vectors(self.canonical)
         self._identity = bool(np.all(self._scale == 1.0) and np.all(self._offset == 0.0))
+        ranges = np.array([joint_range(c) for c in canon], float).reshape(-1, 2)
+        self._lo, self._hi = ranges[:, 0], ranges[:, 1]
+        self._where = where
 
-    def positions(self, raw: np.ndarray) -> np.ndarray:
-        """Published positions (..., k) -> record angles (..., 24): calibrated, J0 split."""
+    def positions(self, raw: np.ndarray, time: np.ndarray | float | None = None) -> np.ndarray:
+        """Published positions (..., k) -> record angles (..., 24): calibrated, checked
+        against the hand's ranges (:meth:`check_range`; ``time`` (...) names the sample in
+        the error), J0 split."""
         raw = np.asarray(raw, float)
         if not self._identity:
             raw = raw * self._scale + self._offset
+        self.check_range(raw, time)
         out = np.zeros(raw.shape[:-1] + (len(JOINT_NAMES),))
         out[..., self._dst] = raw[..., self._src]
         if self.coupled:
@@ -96,6 +109,31 @@ class JointMap:
             out[..., self._j2] = j2
             out[..., self._j1] = j0 - j2
         return out
+
+    def check_range(self, calibrated: np.ndarray, time: np.ndarray | float | None) -> None:
+        """Refuse a calibrated position that is NaN, infinite, or outside its joint's range
+        plus ``hand.RANGE_TOLERANCE_RAD`` (docs/hand.md): no hand can be there, so any shape
+        answered from it would be nonsense. The error names the joint, the time and the
+        value."""
+        values = np.asarray(calibrated, float).reshape(-1, len(self.names))
+        bad = ~((values >= self._lo) & (values <= self._hi))  # NaN fails both
+        if not bad.any():
+            return
+        row, col = (int(v) for v in np.argwhere(bad)[0])
+        value = values[row, col]
+        when = ""
+        if time is not None:
+            t = np.asarray(time, float).reshape(-1)
+            when = f" at {float(t[row] if t.size > row else t[0]):.6g} s"
+        label = "calibrated value" if not self._identity else "value"
+        problem = "not a number" if np.isnan(value) else (
+            f"outside the hand's range {self._lo[col]:.3f} .. {self._hi[col]:.3f} rad "
+            "(joint limits plus tolerance, docs/hand.md)"
+        )  # fmt: skip
+        raise UsageError(
+            f"{self._where + ': ' if self._where else ''}joint {self.names[col]}{when}: "
+            f"{label} {value:.6g} rad is {problem}"
+        )
 
     def efforts(self, raw: np.ndarray) -> np.ndarray:
         """Published efforts (..., k) -> record efforts (..., 24); the tendon's J0 effort acts

@@ -9,6 +9,7 @@ from __future__ import annotations
 import re
 from collections.abc import Sequence
 
+from ..errors import UsageError
 from ..hand import JOINT_NAMES, LONG_FINGERS
 
 DEFAULT_TOPIC = "/joint_states"
@@ -55,3 +56,25 @@ def canonical_joint(name: str) -> str | None:
     """``rh_FFJ3`` -> ``FFJ3``; None for a name that is no Shadow joint."""
     parts = split_name(name)
     return None if parts is None else parts[1]
+
+
+def hand_prefix(names: Sequence[str]) -> str:
+    """The hand prefix ("rh") of the first Shadow joint among ``names``; "" for none."""
+    for name in names:
+        parts = split_name(name)
+        if parts is not None:
+            return parts[0].lower()
+    return ""
+
+
+def prefix_option(text: str | None) -> str | None:
+    """``--prefix rh_`` (or ``rh``) as the prefix names carry ("rh"); "none" for names
+    without one; None when not given (a recording must then hold one hand)."""
+    if text is None:
+        return None
+    value = text.strip().rstrip("_").lower()
+    if value.lower() == "none":
+        return ""
+    if not re.fullmatch(r"[A-Za-z][A-Za-z0-9]*", value):
+        raise UsageError(f"--prefix must be letters and digits like 'rh_', got {text!r}")
+    return value

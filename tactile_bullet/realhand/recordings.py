@@ -169,18 +169,20 @@ def read_samples(
     topic: str = DEFAULT_TOPIC,
     marker: str | None = None,
     calibration: Calibration | None = None,
+    prefix: str | None = None,
 ) -> JointSamples:
-    """A recording of any supported kind, by its suffix (a folder is a ROS 2 bag)."""
+    """A recording of any supported kind, by its suffix (a folder is a ROS 2 bag); one hand's
+    samples (``prefix`` "rh" picks one where the file holds two)."""
     path = Path(path)
     if not path.exists():
         raise UsageError(f"recording {path} does not exist")
     suffix = path.suffix.lower()
     if suffix in (".csv", ".parquet", ".pq"):
-        return read_table(path, marker, calibration)
+        return read_table(path, marker, calibration, prefix=prefix)
     if suffix in (".bag", ".db3", ".mcap") or path.is_dir():
         if path.is_dir() and not (path / "metadata.yaml").is_file():
             raise UsageError(f"{path} is a folder but not a ROS 2 bag (no metadata.yaml)")
-        return read_bag(path, topic, marker, calibration)
+        return read_bag(path, topic, marker, calibration, prefix)
     raise UsageError(
         f"{path}: unknown recording type {suffix or '(none)'} "
         "(.bag, a ROS 2 bag folder, .db3, .mcap, .csv, .parquet)"
@@ -195,9 +197,10 @@ def read_recording(
     shape: str | None = None,
     calibration: Calibration | None = None,
     gap_s: float = GAP_S,
+    prefix: str | None = None,
 ) -> list[RecordedGrasp]:
     """Every grasp in one recording file, in time order; an error when it holds none."""
-    samples = read_samples(path, topic, marker, calibration)
+    samples = read_samples(path, topic, marker, calibration, prefix)
     grasps = grasps_from_samples(samples, shape, gap_s)
     if not grasps:
         how = "its markers" if samples.windows is not None or samples.row_groups is not None else (
@@ -267,7 +270,7 @@ def write_dataset(
 
     Built in a temporary folder beside ``out`` and renamed into place, so a failure leaves
     nothing; an existing ``out`` is refused unless ``force`` (and even then only an empty
-    folder or a dataset is replaced, never other files)."""
+    folder or a dataset holding nothing but this project's files is replaced)."""
     import hashlib
     import os
     import shutil
@@ -334,8 +337,10 @@ def write_dataset(
 def check_dataset_out(out: Path, force: bool) -> None:
     """Refuse an ``out`` that is a file, a folder of other files, or a dataset (unless
     ``force``): checked before recordings are read, and again before writing."""
-    from ..datasets.shards import MANIFEST
+    from ..datasets.shards import MANIFEST, foreign_in_dataset
+    from ..files import refuse_special
 
+    refuse_special(out, "--out")
     if not out.exists():
         return
     if not out.is_dir():
@@ -344,5 +349,11 @@ def check_dataset_out(out: Path, force: bool) -> None:
         return
     if not (out / MANIFEST).is_file():
         raise UsageError(f"--out {out} exists and holds files that are not a dataset")
+    foreign = foreign_in_dataset(out)
+    if foreign:
+        raise UsageError(
+            f"--out {out} holds {foreign}, which this project did not write: not replacing "
+            "the folder (move it away or choose another folder)"
+        )
     if not force:
         raise UsageError(f"--out {out} already holds a dataset; use --force to replace it")

@@ -42,6 +42,42 @@ TRIM_AT = 4096
 """Samples kept before a grasp starts are trimmed once the buffer holds this many."""
 
 
+def checked_message(
+    t: Any, names: Any, positions: Any, efforts: Any
+) -> tuple[float, tuple[str, ...], np.ndarray, np.ndarray | None]:
+    """A joint-state message's fields as (time, names, positions, efforts or None), or the
+    CLI's kind of one-line UsageError: a caller's wrong type must not surface as a bare
+    TypeError from deep inside numpy."""
+    if isinstance(t, bool) or not isinstance(t, int | float | np.integer | np.floating):
+        raise UsageError(f"joint-state time must be a number of seconds, got {t!r}")
+    if names is None or isinstance(names, str | bytes) or not isinstance(
+        names, Sequence | np.ndarray
+    ):
+        raise UsageError(f"joint names must be a list of strings, got {names!r}")
+    if not all(isinstance(n, str) for n in names):
+        bad = next(n for n in names if not isinstance(n, str))
+        raise UsageError(f"joint names must be strings, got {bad!r}")
+    arrays = []
+    for what, values in (("positions", positions), ("efforts", efforts)):
+        if values is None or (what == "efforts" and len(values) == 0):
+            arrays.append(None)
+            continue
+        try:
+            array = np.asarray(values, dtype=float)
+        except (TypeError, ValueError):
+            raise UsageError(f"joint {what} must be numbers, got {values!r:.60}") from None
+        if array.ndim != 1:
+            raise UsageError(
+                f"joint {what} must be one list of numbers, got an array of shape {array.shape}"
+            )
+        arrays.append(array)
+    if arrays[0] is None:
+        raise UsageError("joint positions must be a list of numbers, got None")
+    if arrays[1] is not None and not np.isfinite(arrays[1]).all():
+        raise UsageError("joint-state efforts hold NaN or infinity")
+    return float(t), tuple(names), arrays[0], arrays[1]
+
+
 class Identifier:
     """Streaming shape identification with a trained model (see the module docstring)."""
 
@@ -52,6 +88,7 @@ class Identifier:
         self._maps: dict[tuple[str, ...], JointMap | None] = {}
         self._map: JointMap | None = None
         self._names: tuple[str, ...] | None = None
+        self._hand: str | None = None  # the prefix of the first hand message
         self._classes = [str(c) for c in model.classes]
         self.reset()
 
@@ -113,25 +150,31 @@ class Identifier:
         ``positions`` (rad) and optionally ``efforts`` (N m, same order; empty or None when
         the hand publishes none). A message naming no Shadow joint (an arm sharing the
         topic) is ignored."""
+        t, names, raw, efforts = checked_message(t, names, positions, efforts)
         jmap = self._joint_map(names)
         if jmap is None:
             return
-        t = float(t)
-        raw = np.asarray(positions, dtype=float)
+        if self._hand is None:
+            self._hand = jmap.prefix
+        elif jmap.prefix != self._hand:
+            raise UsageError(
+                f"joint state of hand prefix {jmap.prefix or '(none)'!r} after "
+                f"{self._hand or '(none)'!r}: one hand per Identifier"
+            )
         if raw.shape != (len(jmap.names),):
             raise UsageError(f"{len(jmap.names)} joint names but {raw.size} positions")
         if not (math.isfinite(t) and np.isfinite(raw).all()):
             raise UsageError("joint state holds NaN or infinity")
         if self._t and t <= self._t[-1]:
             raise UsageError(f"joint-state time went backwards ({self._t[-1]} s then {t} s)")
-        q = jmap.positions(raw)
-        if efforts is None or len(efforts) == 0:
+        q = jmap.positions(raw, t)
+        if efforts is None:
             e = np.zeros(len(JOINT_NAMES))
             self._no_efforts = True
         elif len(efforts) != len(jmap.names):
             raise UsageError(f"{len(jmap.names)} joint names but {len(efforts)} efforts")
         else:
-            e = jmap.efforts(np.asarray(efforts, dtype=float))
+            e = jmap.efforts(efforts)
         seg = self._segmenter
         c = float(closure(q))
         if seg.closing and seg.settled and abs(c - seg.c_ref) <= STILL_TOL:

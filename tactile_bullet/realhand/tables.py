@@ -12,10 +12,15 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import UsageError
+from ..files import not_a_file
 from ..hand import JOINT_NAMES
 from .calibration import Calibration
 from .joints import JointMap, JointSamples, _check_finite, _check_time
-from .names import LABEL_COLUMN, MARKER_COLUMN, NO_MARKER, TIME_COLUMN
+from .names import LABEL_COLUMN, MARKER_COLUMN, NO_MARKER, TIME_COLUMN, split_name
+
+MAX_TIME_S = 1e11
+"""Largest time (s) a table may hold: seconds since 1970 are ~1.7e9, so a value over this
+(about 3,000 years) is nanoseconds or microseconds since the epoch, not seconds."""
 
 # --- tables -------------------------------------------------------------------------------------
 
@@ -33,7 +38,14 @@ def _table_columns(path: Path) -> dict[str, list]:
             table = pq.read_table(path)
         except Exception as exc:  # noqa: BLE001 - a damaged file is the user's input
             raise UsageError(f"{path} is not a readable Parquet file ({exc})") from None
-        return {name: table.column(name).to_pylist() for name in table.column_names}
+        _refuse_duplicates(table.column_names, path)
+        out = {}
+        for name, kind in zip(table.column_names, table.schema.types, strict=True):
+            values = table.column(name).to_pylist()
+            if pa_types_bool(kind):  # as text, so a joint column of them is refused, never 1.0 rad
+                values = [None if v is None else str(v).lower() for v in values]
+            out[name] = values
+        return out
     import csv
 
     try:
@@ -45,6 +57,9 @@ def _table_columns(path: Path) -> dict[str, list]:
     if not rows:
         raise UsageError(f"{path} is empty")
     header = [h.strip() for h in rows[0]]
+    if header and header[0].startswith("\ufeff"):  # a byte-order mark (Excel's UTF-8 CSV)
+        header[0] = header[0][1:].strip()
+    _refuse_duplicates(header, path)
     body = rows[1:]
     for k, row in enumerate(body):
         if len(row) != len(header):
@@ -54,7 +69,25 @@ def _table_columns(path: Path) -> dict[str, list]:
     return {h: [r[j] for r in body] for j, h in enumerate(header)}
 
 
+def _refuse_duplicates(names: list[str], path: Path) -> None:
+    """Two columns of one name: which one is meant cannot be known (the last would win)."""
+    seen: set[str] = set()
+    for name in names:
+        if name in seen:
+            raise UsageError(f"{path}: column {name!r} appears twice")
+        seen.add(name)
+
+
+def pa_types_bool(kind) -> bool:
+    import pyarrow as pa
+
+    return bool(pa.types.is_boolean(kind))
+
+
 def _floats(values: list, where: str, what: str) -> np.ndarray:
+    bad = next((v for v in values if isinstance(v, str) and "_" in v), None)
+    if bad is not None:  # Python's float() reads "1_0" as 10
+        raise UsageError(f"{where}: {what} holds {bad!r}, not a number")
     try:
         return np.array([float(v) if v not in ("", None) else math.nan for v in values], float)
     except (TypeError, ValueError):
@@ -75,12 +108,15 @@ def read_table(
     marker: str | None = None,
     calibration: Calibration | None = None,
     time_column: str = TIME_COLUMN,
+    prefix: str | None = None,
 ) -> JointSamples:
-    """Joint states of a CSV or Parquet table (see the module docstring for its columns)."""
+    """Joint states of a CSV or Parquet table (see the module docstring for its columns);
+    ``prefix`` ("rh") keeps one hand's columns of a table that holds two."""
     path = Path(path)
     where = str(path)
-    if not path.is_file():
-        raise UsageError(f"recording {path} does not exist")
+    problem = not_a_file(path)
+    if problem:
+        raise UsageError(f"recording {path} {problem}")
     columns = _table_columns(path)
     if time_column not in columns:
         raise UsageError(f"{where} has no {time_column!r} column")
@@ -100,11 +136,23 @@ def read_table(
             effort_cols[name[: -len("_effort")]] = name
         else:
             joints.append(name)
+    if prefix is not None:
+        joints = [j for j in joints if (p := split_name(j)) is None or p[0].lower() == prefix]
+        effort_cols = {j: c for j, c in effort_cols.items() if j in joints}
+        if not joints:
+            shown = prefix + "_" if prefix else "(none)"
+            raise UsageError(f"{where}: no joint columns of hand prefix {shown!r}")
     unknown = [e for e in effort_cols if e not in joints]
     if unknown:
-        raise UsageError(f"{where}: effort columns for no position column: {', '.join(unknown)}")
+        shown = ", ".join(ascii(e + "_effort") for e in unknown)  # ascii: show odd characters
+        raise UsageError(f"{where}: effort columns without their position column: {shown}")
     jmap = JointMap(joints, calibration, where)
     time = _floats(columns[time_column], where, f"column {time_column!r}")
+    if time.size and np.nanmax(np.abs(time)) > MAX_TIME_S:
+        raise UsageError(
+            f"{where}: column {time_column!r} holds {np.nanmax(np.abs(time)):.6g}, too large "
+            "for seconds: nanoseconds? (divide by 1e9; time is in seconds)"
+        )
     _check_time(time, where)
     raw = np.column_stack([_floats(columns[j], where, f"column {j!r}") for j in joints])
     missing = ~np.isfinite(raw)
@@ -131,7 +179,7 @@ def read_table(
         source=where,
         time=time - time[0],
         receive=time - time[0],
-        angles=jmap.positions(raw),
+        angles=jmap.positions(raw, time),
         efforts=efforts,
         has_efforts=has_eff,
         row_groups=groups,
@@ -143,7 +191,7 @@ def read_table(
 
 def _group_key(value):
     """A marker cell as a grasp key; 0 (or empty) for rows between grasps."""
-    if value in ("", None):
+    if value in ("", None, "false"):
         return 0
     try:
         number = float(value)

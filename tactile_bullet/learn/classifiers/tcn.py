@@ -258,8 +258,11 @@ class TCNClassifier(ClassifierMixin, BaseEstimator):
         targets = torch.as_tensor(y_idx, dtype=torch.long, device=device)
         n = xs.shape[0]
         batch = min(int(self.batch_size), n)
+        from ...console import tick
+
         curve = []
-        for epoch_order in order:
+        for epoch, epoch_order in enumerate(order):
+            tick("tcn training epochs", epoch, len(order))
             total = 0.0
             for lo in range(0, n, batch):
                 rows = torch.as_tensor(epoch_order[lo : lo + batch], device=device)

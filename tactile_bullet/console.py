@@ -97,3 +97,9 @@ def progress(iterable: Iterable, total: int | None, desc: str, enabled: bool) ->
     from tqdm import tqdm
 
     return tqdm(iterable, total=total, desc=desc, unit="grasp", file=sys.stderr)
+
+
+def plural(n: int, noun: str, plural: str | None = None) -> str:
+    """``"1 shard"``, ``"3 shards"``: a number with its noun in the right number (``plural``
+    where adding "s" is wrong, e.g. ``plural(n, "class", "classes")``)."""
+    return f"{n} {noun if n == 1 else plural or noun + 's'}"

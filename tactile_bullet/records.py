@@ -104,6 +104,15 @@ class ControllerSettings:
     phalanx_scale: float = 1.0
     """Length factor of every finger's and the thumb's phalanges (joint spacing and link
     geometry): 1.03 is another hand of the same model with 3% longer fingers."""
+    coupling: str = "j2-first"
+    """How the J0 tendon shares its travel between J2 and J1 (``sim/coupling.py``): "j2-first"
+    (the thesis' hand), "equal-torque" or "distal-first"."""
+    joint_offsets: tuple[float, ...] = ()
+    """Calibration offsets (rad) added to the recorded angles of the 12 FCI joints, in
+    :data:`OFFSET_JOINTS` order: what an uncalibrated real hand's sensors report. Empty: none."""
+    contact_stiffness: float = 0.0
+    """Contact stiffness (N/m) between the hand and the object, a soft fingertip's; 0: the
+    engine's rigid contact."""
 
     def __post_init__(self) -> None:
         if self.mode not in ("torque", "contact"):
@@ -139,12 +148,58 @@ class ControllerSettings:
         scale = self.phalanx_scale
         if isinstance(scale, bool) or not isinstance(scale, int | float) or not 0.8 <= scale <= 1.2:
             raise UsageError(f"controller phalanx_scale must be from 0.8 to 1.2, got {scale!r}")
+        _check_variation(self)
 
 
-PHYSICS_DEFAULTS: dict[str, float | bool] = {
+COUPLINGS: tuple[str, ...] = ("j2-first", "equal-torque", "distal-first")
+"""The J1/J2 tendon rules ``sim/coupling.py`` implements (``ControllerSettings.coupling``)."""
+OFFSET_JOINTS: tuple[str, ...] = tuple(j for f in LONG_FINGERS for j in FCI_JOINTS[f])
+"""The joints ``ControllerSettings.joint_offsets`` applies to: ff J3, J2, J1, then mf, rf, lf."""
+MAX_JOINT_OFFSET = math.radians(20.0)
+"""Largest calibration offset (rad) a record may carry: beyond it a reading is not a joint's."""
+MAX_CONTACT_STIFFNESS = 1e7
+
+
+def _check_variation(ctl: ControllerSettings) -> None:
+    """The hand-variation fields (coupling, offsets, contact stiffness), normalised in place."""
+    if ctl.coupling not in COUPLINGS:
+        raise UsageError(
+            f"controller coupling must be one of {', '.join(COUPLINGS)}, got {ctl.coupling!r}"
+        )
+    offsets = ctl.joint_offsets
+    if isinstance(offsets, np.ndarray) and offsets.ndim == 1:
+        offsets = offsets.tolist()
+    if isinstance(offsets, str) or not isinstance(offsets, tuple | list):
+        raise UsageError(f"controller joint_offsets must be a list of numbers, got {offsets!r}")
+    if offsets and len(offsets) != len(OFFSET_JOINTS):
+        raise UsageError(
+            f"controller joint_offsets needs {len(OFFSET_JOINTS)} values (rad, in the order "
+            f"{', '.join(OFFSET_JOINTS)}), got {len(offsets)}"
+        )
+    for v in offsets:
+        if isinstance(v, bool) or not isinstance(v, int | float) or not math.isfinite(v) or (
+            abs(v) > MAX_JOINT_OFFSET
+        ):
+            raise UsageError(
+                f"controller joint_offsets must be finite numbers within +-"
+                f"{math.degrees(MAX_JOINT_OFFSET):g} deg (in rad), got {v!r}"
+            )
+    object.__setattr__(ctl, "joint_offsets", tuple(float(v) for v in offsets))
+    k = ctl.contact_stiffness
+    if isinstance(k, bool) or not isinstance(k, int | float) or not 0 <= k <= MAX_CONTACT_STIFFNESS:
+        raise UsageError(
+            f"controller contact_stiffness must be from 0 (rigid) to {MAX_CONTACT_STIFFNESS:g} "
+            f"N/m, got {k!r}"
+        )
+
+
+PHYSICS_DEFAULTS: dict[str, float | bool | str | tuple] = {
     "friction": 0.8,
     "phalanx_scale": 1.0,
     "early_stop": False,
+    "coupling": "j2-first",
+    "joint_offsets": (),
+    "contact_stiffness": 0.0,
 }
 """Fields of ControllerSettings added after records were first written (physics knobs and
 the early grasp end): left out of the saved form while at these values, so older records,
@@ -157,6 +212,8 @@ def controller_dict(controller: ControllerSettings) -> dict:
     for key, default in PHYSICS_DEFAULTS.items():
         if out[key] == default:
             del out[key]
+    if "joint_offsets" in out:
+        out["joint_offsets"] = list(out["joint_offsets"])
     return out
 
 

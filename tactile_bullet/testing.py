@@ -121,6 +121,8 @@ class ComparisonData:
         key = (protocol.train, case.training, case.descriptor, case.classifier)
         if key not in self._fits:
             train = self.records(protocol.train)
+            if case.training == "randomized":
+                train = self.records(P.randomized_name(protocol.train))
             if case.training == "noise-aware":
                 train = augment(train)
             self._fits[key] = get_classifier(case.classifier).fit(

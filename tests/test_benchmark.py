@@ -129,3 +129,26 @@ def test_a_floor_failure_names_the_method(comparison_data):  # noqa: F811
     case = testing.Case("in-distribution", "signature", "svm")
     with pytest.raises(AssertionError, match="signature \\+ svm .* under its floor 101%"):
         testing.assert_floor(comparison_data, case, {"in-distribution": 1.01})
+
+
+def test_curve_figures_hold_every_method_with_intervals_from_the_test_size(tmp_path):
+    from tactile_bullet.experiments import protocols as P
+    from tactile_bullet.experiments.benchmark import _curves, plot_curves
+
+    table = P.protocols("full")
+    rows = [
+        {"protocol": name, "level": lv.name, "descriptor": d, "classifier": c,
+         "training": t, "accuracy": 0.5, "headline": lv.headline, "test_records": n}
+        for name in ("sensor-noise", "sim-shift") for lv in table[name].levels
+        for d, n in (("signature", 60), ("raw-joints", 240), ("robust-joints", 60),
+                     ("contact-normals", 60), ("time-series", 60))
+        for c in ("svm", "knn", "random-forest") for t in ("clean", "noise-aware")
+    ]  # fmt: skip
+    written = plot_curves(rows, table, tmp_path)
+    assert [p.name for p in written] == ["noise.png", "shift.png"]
+    assert all(p.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" for p in written)
+    curves = _curves(rows, table["sensor-noise"], "sensor-noise", "noise sigma")
+    assert len(curves) == 5 * 3 * 2  # every method, none dropped for legibility
+    half = {m[0]: curves[m][0][2] for m in curves}
+    # 95% interval of 50% accuracy: ~13 points on 60 test grasps, half as wide on 4x as many
+    assert 12 < half["signature"] < 14 and half["raw-joints"] < 0.55 * half["signature"]

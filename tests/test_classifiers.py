@@ -13,10 +13,15 @@ from tactile_bullet.errors import UsageError
 
 CLASSIFIERS = plugins.classifier_names()
 DESCRIPTORS = plugins.descriptor_names()
+SAME_LAYOUT = {("coupled-time-series", "neural-forest"): "time-series + neural-forest"}
+"""Pairs left out as a second copy of a slow one: the same columns (learn/coupled.py), and the
+neural forest on 1,088 time-series columns takes 1-2 min on 2 shared cores."""
 PAIRS = [
     (d, c)
-    if plugins.compatible(d, c)
-    else pytest.param(d, c, marks=pytest.mark.skip("reads another descriptor"))
+    if plugins.compatible(d, c) and (d, c) not in SAME_LAYOUT
+    else pytest.param(d, c, marks=pytest.mark.skip(
+        f"same layout as {SAME_LAYOUT[d, c]}" if (d, c) in SAME_LAYOUT
+        else "reads another descriptor"))  # fmt: skip
     for d in DESCRIPTORS
     for c in CLASSIFIERS
 ]

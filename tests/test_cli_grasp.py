@@ -74,3 +74,77 @@ def test_unwritable_output_is_refused_before_simulating(tmp_path, capsys):
 def test_gui_without_a_display_is_a_clear_error(monkeypatch, capsys):
     monkeypatch.delenv("DISPLAY", raising=False)
     assert "display" in run_error(capsys, ["grasp", "--shape", "sphere", "--gui"])
+
+
+def test_off_centre_sphere_gives_one_answer_and_no_estimate_out_of_range(capsys):
+    # The case of issue 18: a sphere 25 mm off-centre along O-O' read "identified torus,
+    # rotation estimate 95 deg" (outside the calibrated 0-25 deg), and the shape fit, which
+    # names it a sphere, was not shown.
+    argv = ["grasp", "--shape", "sphere", "--offset", "0.025,0,0"]
+    assert main([*argv, "--json"]) == 0
+    doc = json.loads(capsys.readouterr().out)
+    assert doc["answer"] == {
+        "shape": doc["shape_fit"]["shape"], "identifier": "shape-fit",
+        "others": {"signature": doc["signature"]["identified"]},
+    }  # fmt: skip
+    assert doc["answer"]["shape"] == "sphere"
+    sig = doc["signature"]
+    assert sig["rotation_estimate_deg"] is None
+    assert "outside the calibrated 0-25 deg" in sig["rotation_estimate_withheld"]
+    assert main(argv) == 0
+    lines = capsys.readouterr().out.splitlines()
+    assert lines[1].startswith("identified: sphere by the shape fit")
+    text = "\n".join(lines)
+    assert f"signature (DTW to the thesis patterns): {sig['identified']}" in text
+    assert "rotation estimate withheld: " in text and "rotation estimate: " not in text
+
+
+@pytest.mark.parametrize("name", ["closing.gif", "closing.mp4"])
+def test_video_of_the_closing_hand(tmp_path, capsys, name):
+    import cv2
+
+    video, rec = tmp_path / name, tmp_path / "rec.npz"
+    argv = ["grasp", "--shape", "cylinder", "--video", str(video), "--video-every", "12",
+            "--out", str(rec), "--json"]  # fmt: skip
+    assert main(argv) == 0
+    doc = json.loads(capsys.readouterr().out)
+    samples = len(load_record(rec).time)  # every 12th sample from the first, and the last
+    frames = len(range(0, samples, 12)) + ((samples - 1) % 12 != 0)
+    assert doc["video"] == {"frames": frames, "every": 12, "size": 240}
+    assert doc["outputs"]["video"] == str(video)
+    capture = cv2.VideoCapture(str(video))  # reads both: the frames a player shows
+    shown = 0
+    while True:
+        ok, image = capture.read()
+        if not ok:
+            break
+        assert image.shape == (240, 480, 3)  # two labelled views side by side
+        shown += 1
+    assert shown == frames
+
+
+def test_video_refusals_come_before_simulating(tmp_path, capsys):
+    err = run_error(capsys, ["grasp", "--shape", "sphere", "--video", str(tmp_path / "v.avi")])
+    assert ".mp4 or .gif" in err
+    err = run_error(capsys, ["grasp", "--shape", "sphere", "--video-every", "3"])
+    assert "--video" in err
+    err = run_error(
+        capsys, ["grasp", "--shape", "sphere", "--video", str(tmp_path / "v.gif"),
+                 "--video-every", "0"],
+    )  # fmt: skip
+    assert "--video-every" in err
+    assert not list(tmp_path.iterdir())
+    kept = tmp_path / "old.gif"
+    kept.write_bytes(b"an earlier video")
+    err = run_error(capsys, ["grasp", "--shape", "sphere", "--video", str(kept)])
+    assert "--force" in err and kept.read_bytes() == b"an earlier video"
+
+
+def test_a_grasp_that_touched_too_little_has_no_answer():
+    from tactile_bullet.cli.grasp import grasp_answer
+
+    fit = {"shape": "cone", "params": {}, "residual": 0.4}
+    too_little = {"identified": None, "reason": "no contact: nothing to identify (...)"}
+    assert grasp_answer(fit, too_little)["shape"] is None  # a fist fitted says nothing
+    assert grasp_answer(None, {"identified": "torus"}) == {
+        "shape": "torus", "identifier": "signature", "others": {"shape-fit": None}}

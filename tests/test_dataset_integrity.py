@@ -411,3 +411,22 @@ def test_sequential_refuses_a_damaged_dataset_unless_allowed(ds, tmp_path, capsy
     X, y, names = load_data(args)  # what `sequential --allow-partial` learns from
     assert len(X) == len(y) == N_RECORDS - 4 and names == ["cylinder", "sphere"]
     assert "--allow-partial: 4 records skipped" in capsys.readouterr().out
+
+
+def test_messages_count_in_the_singular(tmp_path, capsys):
+    # "1 shards", "(1 records)" read as bugs; a one-shard dataset with one damaged record says
+    # "1 shard" and "(1 record)"
+    out = tmp_path / "one"
+    assert write(mix_sweep(tmp_path), out, shard_size=N_RECORDS)["shards"] == 1
+    assert main(["verify", "--data", str(out)]) == 0
+    head = capsys.readouterr().out.splitlines()[0]
+    assert f"{N_RECORDS} of {N_RECORDS} records readable, 1 shard listed for " in head
+    assert "(0 tasks the simulator" in head
+    from tactile_bullet.datasets.integrity import Problem
+
+    assert str(Problem("shard-00000.npz", "damaged", records=1)).endswith("damaged (1 record)")
+    from tactile_bullet.console import plural
+
+    assert [plural(n, "file") for n in (0, 1, 2)] == ["0 files", "1 file", "2 files"]
+    assert plural(1, "class", "classes") == "1 class"
+    assert plural(3, "class", "classes") == "3 classes"

@@ -145,6 +145,7 @@ def test_signature_summary_has_the_grasp_json_fields(grasps):
     assert set(summary) == {
         "alpha_deg", "rotation_estimate_deg", "identified", "identified_uncorrected",
         "nearest_pattern", "distances", "in_identification_range", "correction",
+        "rotation_estimate_withheld",
     }  # fmt: skip
     assert summary["correction"]["detector"] == "dynamic"
     assert set(summary["distances"]) == set(default_library())
@@ -177,4 +178,10 @@ def test_identification_ranges_lie_inside_the_valid_ranges(capsys):
             assert p["min"] - 1e-9 <= lo <= hi <= p["max"] + 1e-9
             assert p["identification_range"] == [lo, hi]
     assert main(["shapes"]) == 0
-    assert "identified without training in" in capsys.readouterr().out
+    text = capsys.readouterr().out
+    assert "identified without training in" in text
+    # a size where identification held alone is no range: "only at 0.035", never "[0.035, 0.035]"
+    points = [lo for params in ranges.values() for lo, hi in params.values() if lo == hi]
+    assert points, "the packaged ranges hold single sizes (sphere radius, cone sizes)"
+    for lo in points:
+        assert f"only at {lo:g}" in text and f"[{lo:g}, {lo:g}]" not in text

@@ -67,6 +67,18 @@ def test_identify_recording_names_every_grasp(capsys, files):
     assert [g["label"] for g in doc["grasps"]] == [r.shape for r in files["test"]]
     starts = [g["start_s"] for g in doc["grasps"]]
     assert starts == sorted(starts) and "shape" not in doc  # several grasps: no single answer
+    labels = [r.shape for r in files["test"]]
+    right = sum(s == t for s, t in zip(want, labels, strict=True))
+    assert doc["tally"] == {
+        "grasps": len(labels), "shapes": {s: list(want).count(s) for s in doc["tally"]["shapes"]},
+        "labelled": len(labels), "correct": right,
+    }  # fmt: skip
+    assert sum(doc["tally"]["shapes"].values()) == len(labels)
+    argv = ["identify", "--model", str(root / "model.npz"), "--recording", str(root / "test.bag")]
+    assert main(argv) == 0
+    last = capsys.readouterr().out.splitlines()[-1]
+    assert last.startswith(f"{len(labels)} grasps: ")
+    assert last.endswith(f"; {right} of {len(labels)} labelled grasps named as labelled")
 
 
 def test_identify_recording_of_one_grasp_keeps_the_identify_contract(tmp_path, capsys, files):

@@ -35,3 +35,15 @@ def test_a_malformed_descriptor_parameter_is_refused_before_any_work(tmp_path, c
     code = main(["sequential", "--data", str(tmp_path), "--descriptor-param", "points"])
     assert code == 2
     assert "--descriptor-param" in capsys.readouterr().err
+
+
+def test_accuracy_error_bars_stay_within_0_and_1():
+    import numpy as np
+
+    from tactile_bullet.experiments.sequential import clipped_spread
+
+    acc = np.array([[1.0, 0.9, 0.0], [1.0, 0.5, 0.2], [0.7, 0.7, 0.1]])
+    mean, below, above = clipped_spread(acc)
+    assert np.all(mean - below >= 0) and np.all(mean + above <= 1 + 1e-12)
+    assert np.allclose(below[1], acc[:, 1].std())  # inside the scale: the plain std
+    assert above[0] == 1.0 - mean[0] < acc[:, 0].std()  # near 1: cut at 1

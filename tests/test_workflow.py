@@ -225,6 +225,17 @@ def test_report_folder_holds_json_and_figures(model, data, tmp_path):
     assert not list((tmp_path / "rep").glob(".*tmp*"))
 
 
+def test_report_figures_are_titled_with_method_and_accuracy(model, data):
+    doc = workflow.evaluate(model, data[1])
+    title = reports.report_title(doc, "accuracy by size")
+    method = f"{doc['model']['descriptor']} + {doc['model']['classifier']}"
+    assert title.startswith(f"{method}: {100 * doc['accuracy']:.1f}% of {doc['records']} grasps")
+    assert title.endswith("accuracy by size")
+    rec = data[0][0]
+    key = reports.grasp_key(rec)  # the signatures.png key names each grasp's sizes and offset
+    assert all(f"{1000 * v:.0f}" in key for v in rec.params.values())
+
+
 def test_confusion_text_lists_every_class():
     text = reports.confusion_text([[2, 0], [1, 3]], ["cone", "sphere"])
     lines = text.splitlines()

@@ -20,14 +20,15 @@ def add_parser(sub) -> None:
     )
     parser.add_argument(
         "--protocol", metavar="NAME,...", default="all",
-        help="in-distribution, unseen-sizes, unseen-poses, sensor-noise, sim-shift, or all "
-        "(default all)",
+        help="in-distribution, unseen-sizes, unseen-poses, sensor-noise, sim-shift, "
+        "coupling-shift, or all (default all)",
     )  # fmt: skip
     parser.add_argument("--descriptor", metavar="A,B", help="descriptors (default: all installed)")
     parser.add_argument("--classifier", metavar="X,Y", help="classifiers (default: all installed)")
     parser.add_argument(
         "--training", metavar="T,...", default="clean,noise-aware",
-        help="clean and/or noise-aware (default: both)",
+        help="clean, noise-aware and/or randomized (default: clean,noise-aware; randomized "
+        "simulates each training set once more with the hand drawn per grasp)",
     )  # fmt: skip
     parser.add_argument("--out", required=True, metavar="DIR", help="results and grasp cache")
     parser.add_argument(

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 
+from ..console import plural
 from .common import emit_json
 
 FORMATS = ("bag", "db3", "mcap", "csv")
@@ -56,5 +57,6 @@ def run(args: argparse.Namespace) -> int:
     if args.json:
         emit_json(doc)
     else:
-        print(f"wrote {doc['grasps']} grasps ({doc['messages']} joint states) to {doc['out']}")
+        print(f"wrote {plural(doc['grasps'], 'grasp')} ({plural(doc['messages'], 'joint state')}) "
+              f"to {doc['out']}")  # fmt: skip
     return 0

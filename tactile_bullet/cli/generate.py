@@ -9,6 +9,7 @@ import threading
 import time
 from pathlib import Path
 
+from ..console import plural
 from ..errors import UsageError
 from .common import MAX_WORKERS, count, emit_json, seed_number, show_progress
 
@@ -27,7 +28,8 @@ def add_parser(sub) -> None:
     )
     source = parser.add_mutually_exclusive_group(required=True)
     source.add_argument(
-        "--preset", help="thesis, modified, sequential, temporal or smoke (a few grasps, seconds)"
+        "--preset", help="thesis, modified, sequential, temporal, randomized (the thesis "
+        "sweep with the hand and physics drawn per grasp) or smoke (a few grasps, seconds)"
     )
     source.add_argument("--config", metavar="FILE.toml", help="a sweep declared in TOML")
     parser.add_argument("--out", required=True, help="dataset directory (new or resumed)")
@@ -126,7 +128,8 @@ def run(args: argparse.Namespace) -> int:
         emit_json(doc)
     else:
         print(
-            f"{doc['records']} grasps in {doc['shards']} shards at {doc['out']} "
+            f"{plural(doc['records'], 'grasp')} in {plural(doc['shards'], 'shard')} at "
+            f"{doc['out']} "
             f"({doc['failed']} failed) in {doc['wall_time_s']:.1f} s"
         )
         for problem in doc["repaired"]:

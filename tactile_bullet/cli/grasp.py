@@ -66,13 +66,27 @@ def add_parser(sub) -> None:
         "(fewer steps when a finger misses the object)",
     )  # fmt: skip
     parser.add_argument(
+        "--coupling", choices=("j2-first", "equal-torque", "distal-first"), default="j2-first",
+        help="how the J1/J2 tendon shares its travel (docs/transfer.md; default j2-first)",
+    )  # fmt: skip
+    parser.add_argument(
         "--seed", type=seed_number, default=0,
         help="seed stored in the record; the grasp itself is deterministic (default 0)",
     )  # fmt: skip
     parser.add_argument("--out", help="write the GraspRecord to this .npz file")
     parser.add_argument("--snapshot", help="render the grasp to this PNG (CPU renderer)")
     parser.add_argument("--plot", help="draw FCI and signatures of the grasp to this PNG")
-    add_force_flag(parser, "--out, --snapshot and --plot files")
+    parser.add_argument(
+        "--video", metavar="FILE",
+        help="replay the closing hand into this .mp4 or .gif (CPU renderer, two views of "
+        "240 px, 30 frames per second)",
+    )  # fmt: skip
+    parser.add_argument(
+        "--video-every", type=int, metavar="K",
+        help="draw every K-th recorded sample (60 per simulated second) into --video "
+        "(default: 2, real time, or more to keep within 120 frames)",
+    )  # fmt: skip
+    add_force_flag(parser, "--out, --snapshot, --plot and --video files")
     parser.add_argument("--gui", action="store_true", help="show PyBullet's window")
     parser.add_argument("--json", action="store_true", help="print one JSON document")
     parser.set_defaults(run=run)
@@ -81,7 +95,8 @@ def add_parser(sub) -> None:
 def _controller(args):
     from ..records import ControllerSettings
 
-    overrides = {"mode": args.mode, "preshape": args.preshape, "early_stop": args.early_stop}
+    overrides = {"mode": args.mode, "preshape": args.preshape, "early_stop": args.early_stop,
+                 "coupling": args.coupling}  # fmt: skip
     for key, value in (("delta", args.delta), ("thres_t", args.thres), ("max_time", args.max_time)):
         if value is not None:
             overrides[key] = value
@@ -95,10 +110,19 @@ def run(args: argparse.Namespace) -> int:
     offset = parse_offset(args.offset)
     pose = Pose(offset, parse_rotation(args.rotation))
     controller = _controller(args)
-    outputs = output_files({f: getattr(args, f) for f in ("out", "snapshot", "plot")}, args.force)
+    outputs = output_files(
+        {f: getattr(args, f) for f in ("out", "snapshot", "plot", "video")}, args.force
+    )
     for flag in ("snapshot", "plot"):
         if flag in outputs:
             image_file(outputs[flag], f"--{flag}", "cv2" if flag == "snapshot" else "matplotlib")
+    if "video" in outputs:
+        from ..sim.render import check_video_path, video_step
+
+        check_video_path(outputs["video"])
+        video_step(2, args.video_every)  # refuses a bad --video-every before simulating
+    elif args.video_every is not None:
+        raise UsageError("--video-every sets the frames of --video: give --video too")
 
     from ..sim.grasp import resolve_shape, timed_grasp
 
@@ -117,6 +141,11 @@ def run(args: argparse.Namespace) -> int:
         from ..records import save_record
 
         save_record(record, outputs["out"])
+    video = None
+    if "video" in outputs:
+        from ..sim.render import write_video
+
+        video = write_video(record, shape, outputs["video"], every=args.video_every)
     signature = _signature_block(record)
     if "plot" in outputs:
         from ..experiments.figures_signature import plot_grasp_signature
@@ -140,6 +169,9 @@ def run(args: argparse.Namespace) -> int:
         "shape_fit": shape_fit_summary(record),
         "outputs": {k: str(v) for k, v in outputs.items()},
     }
+    if video is not None:
+        doc["video"] = {k: v for k, v in video.items() if k != "path"}
+    doc["answer"] = grasp_answer(doc["shape_fit"], signature)
     if (mesh := mesh_block(shape)) is not None:
         doc["mesh"] = mesh
     if args.json:
@@ -149,6 +181,23 @@ def run(args: argparse.Namespace) -> int:
         if "mesh" in doc:
             print(mesh_summary(doc["mesh"]))
     return 0
+
+
+def grasp_answer(fit: dict | None, signature: dict | None) -> dict:
+    """The one answer of a grasp (docs/json.md ``answer``): the shape fit's where it fitted
+    (the better training-free identifier: 98.6% of the invariance grid's grasps against the
+    signature's 60.2%, docs/signature_invariance.md), else the signature's; the other
+    identifier's name is detail. None
+    where the grasp touched too little to carry a shape."""
+    by_signature = signature.get("identified") if signature else None
+    if signature and signature.get("reason"):  # touched too little: a fit of a fist says nothing
+        return {"shape": None, "identifier": None, "others": {}}
+    if fit is not None:
+        return {"shape": fit["shape"], "identifier": "shape-fit",
+                "others": {"signature": by_signature}}  # fmt: skip
+    if by_signature is not None:
+        return {"shape": by_signature, "identifier": "signature", "others": {"shape-fit": None}}
+    return {"shape": None, "identifier": None, "others": {}}
 
 
 def _signature_block(record) -> dict | None:
@@ -177,31 +226,50 @@ def _print_summary(doc: dict) -> None:
     params = ", ".join(f"{k}={v:g} m" for k, v in doc["params"].items())
     print(f"{doc['shape']} ({params}), offset {doc['pose']['offset']} m, "
           f"rotation {doc['pose']['rotation_deg']:g} deg, {doc['mode']} mode")  # fmt: skip
-    print("final joint angles (deg):")
-    angles = doc["joint_angles"]
-    for finger in FINGERS:
-        names = [n for n in angles if n.lower().startswith(finger)]
-        row = "  ".join(f"{n}={math.degrees(angles[n]):6.1f}" for n in names)
-        print(f"  {finger}: {row}")
-    touching = ", ".join(doc["fingers_in_contact"]) or "none"
-    print(f"fingers in contact: {touching}")
-    print(f"simulated {doc['sim_time_s']:.3f} s in {doc['steps']} steps, "
-          f"wall time {doc['wall_time_s']:.3f} s")  # fmt: skip
-    if doc["flags"]:
-        print(f"flags: {', '.join(doc['flags'])}")
+    print(_answer_line(doc))
+    print("detail:")
     sig = doc["signature"]
     if sig and sig.get("reason"):
-        print(f"signature: {sig['reason']}")
+        print(f"  signature: {sig['reason']}")
     elif sig:
+        print(f"  signature (DTW to the thesis patterns): {sig['identified']}, nearest pattern "
+              f"{sig['nearest_pattern']}, alpha {sig['alpha_deg']:.1f} deg")  # fmt: skip
         est = sig.get("rotation_estimate_deg")
-        est_text = "n/a" if est is None else f"{est:.1f} deg"
-        named = f"identified {sig['identified']}, nearest pattern {sig['nearest_pattern']}"
-        print(f"signature: alpha {sig['alpha_deg']:.1f} deg, rotation estimate {est_text}, {named}")
+        if est is not None:
+            print(f"  rotation estimate: {est:.1f} deg")
+        else:
+            print(f"  rotation estimate withheld: {sig['rotation_estimate_withheld']}")
+    touching = ", ".join(doc["fingers_in_contact"]) or "none"
+    print(f"  fingers in contact: {touching}")
     temporal = doc.get("temporal")
     if temporal:
         dyn = temporal["dynamic"]
         off = ", ".join(dyn["non_contact"]) or "none"
-        print(f"fingers off the object (dynamic detector): {off}, all known at "
+        print(f"  fingers off the object (dynamic detector): {off}, all known at "
               f"{dyn['decided_at_s']:.2f} s")  # fmt: skip
+    print(f"  simulated {doc['sim_time_s']:.3f} s in {doc['steps']} steps, "
+          f"wall time {doc['wall_time_s']:.3f} s")  # fmt: skip
+    if doc["flags"]:
+        print(f"  flags: {', '.join(doc['flags'])}")
+    print("  final joint angles (deg):")
+    angles = doc["joint_angles"]
+    for finger in FINGERS:
+        names = [n for n in angles if n.lower().startswith(finger)]
+        row = "  ".join(f"{n}={math.degrees(angles[n]):6.1f}" for n in names)
+        print(f"    {finger}: {row}")
     for key, path in doc["outputs"].items():
         print(f"wrote {key}: {path}")
+
+
+def _answer_line(doc: dict) -> str:
+    """``identified: SHAPE by IDENTIFIER (...)``, the line the ``answer`` block prints as."""
+    answer = doc["answer"]
+    if answer["shape"] is None:
+        return "identified: nothing (the grasp touched too little)"
+    if answer["identifier"] == "shape-fit":
+        fit = doc["shape_fit"]
+        sizes = ", ".join(f"{k} {v * 1000:.1f} mm" for k, v in fit["params"].items())
+        how = f"the shape fit ({sizes}, residual {fit['residual']:.3f} rad)"
+    else:
+        how = "the signature (the shape fit could not fit the angles)"
+    return f"identified: {answer['shape']} by {how}"

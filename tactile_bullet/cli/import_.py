@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 
+from ..console import plural
 from ..errors import UsageError
 from .common import emit_json, parse_number
 
@@ -102,7 +103,8 @@ def run(args: argparse.Namespace) -> int:
         emit_json(doc)
     else:
         labels = ", ".join(f"{n} {k}" for k, n in sorted(doc["labels"].items()))
-        print(f"{doc['records']} grasps from {len(files)} files ({labels}) -> {doc['out']}")
+        print(f"{plural(doc['records'], 'grasp')} from {plural(len(files), 'file')} ({labels}) -> "
+              f"{doc['out']}")  # fmt: skip
     return 0
 
 
@@ -131,6 +133,7 @@ def identify_recording(args: argparse.Namespace) -> int:
         "read_time_s": read_s,
         "identify_time_s": time.perf_counter() - start,
     }
+    doc["tally"] = recording_tally(answers)
     if len(answers) == 1:  # the one-grasp contract of `identify --json`
         doc["shape"], doc["probabilities"] = answers[0]["shape"], answers[0]["probabilities"]
     if args.json:
@@ -141,4 +144,30 @@ def identify_recording(args: argparse.Namespace) -> int:
         label = f" (labelled {a['label']})" if a["label"] else ""
         print(f"grasp {a['index'] + 1} at {a['start_s']:.2f}-{a['end_s']:.2f} s: "
               f"{a['shape']} p={best:.3f}{label}")  # fmt: skip
+    print(tally_line(doc["tally"]))
     return 0
+
+
+def recording_tally(answers: list[dict]) -> dict:
+    """How a recording's grasps were named (docs/json.md ``tally``): ``{"grasps",
+    "shapes": {shape: n}, "labelled", "correct"}``; ``correct`` counts the labelled grasps
+    named as labelled (None when no grasp carries a label)."""
+    from collections import Counter
+
+    labelled = [a for a in answers if a["label"]]
+    return {
+        "grasps": len(answers),
+        "shapes": dict(Counter(str(a["shape"]) for a in answers).most_common()),
+        "labelled": len(labelled),
+        "correct": sum(a["shape"] == a["label"] for a in labelled) if labelled else None,
+    }
+
+
+def tally_line(tally: dict) -> str:
+    """``5 grasps: cylinder 3, sphere 2; 4 of 5 labelled grasps named as labelled``."""
+    shapes = ", ".join(f"{name} {n}" for name, n in tally["shapes"].items()) or "none"
+    line = f"{plural(tally['grasps'], 'grasp')}: {shapes}"
+    if tally["labelled"]:
+        line += (f"; {tally['correct']} of {plural(tally['labelled'], 'labelled grasp')} "
+                 "named as labelled")  # fmt: skip
+    return line

@@ -44,10 +44,19 @@ def run(args: argparse.Namespace) -> int:
         tag = "" if doc["thesis"] else "  (modified shape)"
         print(f"{doc['name']}{tag}: {doc['doc']}")
         for key, p in doc["params"].items():
-            held = p.get("identification_range")
-            note = f"  identified without training in [{held[0]:g}, {held[1]:g}]" if held else ""
+            note = _held_note(p.get("identification_range"))
             print(
                 f"    {key:<14} default {p['default']:<7g} range [{p['min']:g}, {p['max']:g}] "
                 f"{p['unit']}{note}"
             )
     return 0
+
+
+def _held_note(held: list[float] | None) -> str:
+    """Where training-free identification held: a range, or the one size tested where it
+    held alone (a ``[0.035, 0.035]`` "range" reads as a bug)."""
+    if not held:
+        return ""
+    if held[0] == held[1]:
+        return f"  identified without training only at {held[0]:g}"
+    return f"  identified without training in [{held[0]:g}, {held[1]:g}]"

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 
+from ..console import plural
 from .common import add_force_flag, emit_json, estimator_params, writable_file
 from .data_args import add_allow_partial, read_data, report_skipped
 
@@ -29,6 +30,12 @@ def add_parser(sub) -> None:
         "--descriptor-param", action="append", metavar="KEY=VALUE",
         help="descriptor parameter (repeatable)",
     )  # fmt: skip
+    parser.add_argument(
+        "--training", choices=("clean", "noise-aware", "randomized"), default="clean",
+        help="clean: the grasps as they are; noise-aware: each also read through 1 deg of joint "
+        "noise (for a real hand); randomized: a dataset made with the hand drawn per grasp "
+        "(generate --preset randomized), checked (default clean)",
+    )  # fmt: skip
     parser.add_argument("--out", required=True, metavar="MODEL", help="model file to write")
     add_force_flag(parser, "model file")
     parser.add_argument("--json", action="store_true", help="print one JSON document")
@@ -40,17 +47,20 @@ def run(args: argparse.Namespace) -> int:
 
     from ..experiments.workflow import describe_model, train
     from ..learn.models import save_model
+    from ..learn.trainings import training_records
 
     out = writable_file(args.out, "--out", args.force)
     params = estimator_params(args.param, "--param")
     descriptor_params = estimator_params(args.descriptor_param, "--descriptor-param")
     loaded = read_data(args.data, args)
     records = loaded.records
+    fit_on = training_records(records, args.training)
     start = time.perf_counter()
-    model = train(records, args.descriptor, args.classifier, params, descriptor_params)
+    model = train(fit_on, args.descriptor, args.classifier, params, descriptor_params)
     fit_time = time.perf_counter() - start
     model.info.update(
-        {"data": str(args.data), "train_records": len(records), "fit_time_s": fit_time}
+        {"data": str(args.data), "train_records": len(records), "fit_time_s": fit_time,
+         "training": args.training}  # fmt: skip
     )
     if loaded.skipped_records:
         model.info["skipped_records"] = loaded.skipped_records
@@ -60,14 +70,15 @@ def run(args: argparse.Namespace) -> int:
         **describe_model(model),
         "train_records": len(records),
         "fit_time_s": fit_time,
+        "training": args.training,
     }
     report_skipped(loaded, args, doc)
     if args.json:
         emit_json(doc)
     else:
         print(
-            f"trained {doc['descriptor']} + {doc['classifier']} on {len(records)} grasps "
-            f"({', '.join(doc['classes'])}) in {fit_time:.2f} s"
+            f"trained {doc['descriptor']} + {doc['classifier']} on {plural(len(records), 'grasp')} "
+            f"({', '.join(doc['classes'])}) in {fit_time:.2f} s, {args.training} training"
         )
         print(f"wrote model: {path}")
     return 0

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 
+from ..console import plural
 from .common import emit_json
 
 
@@ -48,14 +49,14 @@ def verify_text(doc: dict) -> str:
         head = f"{doc['data']}: {n} readable grasp record{'s' * (n != 1)}"
     elif "listed_records" in doc:
         head = (
-            f"{doc['data']}: {doc['records']} of {doc['listed_records']} records readable, "
-            f"{doc['shards']} shards listed for {doc['tasks']} tasks "
-            f"({doc['failed']} tasks the simulator could not run)"
+            f"{doc['data']}: {doc['records']} of {plural(doc['listed_records'], 'record')} "
+            f"readable, {plural(doc['shards'], 'shard')} listed for {plural(doc['tasks'], 'task')} "
+            f"({plural(doc['failed'], 'task')} the simulator could not run)"
         )
     else:
         head = f"{doc['data']}: the manifest cannot be read"
     lines = [f"{head}: {'sound' if doc['ok'] else 'DAMAGED'}"]
     for p in doc["problems"]:
-        lost = f" ({p['records']} records)" if p["records"] else ""
+        lost = f" ({plural(p['records'], 'record')})" if p["records"] else ""
         lines.append(f"  {p['file']}: {p['problem']}{lost}")
     return "\n".join(lines) + "\n"

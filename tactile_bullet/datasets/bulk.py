@@ -12,6 +12,7 @@ from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
+from ..console import plural
 from ..errors import UsageError
 from ..records import GraspRecord, Pose
 
@@ -85,14 +86,14 @@ def save_records(
     folder = Path(folder)
     existing = _own_records(folder) if folder.is_dir() else []
     if existing and not force:
-        raise UsageError(f"{folder} already holds {len(existing)} records; add --force to "
-                         "overwrite them")  # fmt: skip
+        raise UsageError(f"{folder} already holds {plural(len(existing), 'record')}; add "
+                         "--force to overwrite them")  # fmt: skip
     names = {f"rec{i:05d}.npz" for i in range(len(records))}
     left = [p.name for p in existing if p.name not in names]
     if left:
         raise UsageError(
-            f"{folder} holds {len(existing)} records of an earlier run and this one writes "
-            f"{len(records)}: {left[0]}... would be left beside them; choose another folder"
+            f"{folder} holds {plural(len(existing), 'record')} of an earlier run and this one "
+            f"writes {len(records)}: {left[0]}... would be left beside them; choose another folder"
         )
     try:
         folder.mkdir(parents=True, exist_ok=True)
@@ -119,11 +120,12 @@ def check_record_folder(folder: Path, planned: int, force: bool) -> None:
     existing = _own_records(folder)
     if existing and not force:
         raise UsageError(
-            f"{folder} holds {len(existing)} records of an earlier demo; add --force to "
+            f"{folder} holds {plural(len(existing), 'record')} of an earlier demo; add --force to "
             "overwrite them, or choose another --out"
         )
     if len(existing) > planned:
         raise UsageError(
-            f"{folder} holds {len(existing)} records of an earlier, larger demo and this one "
-            f"writes {planned}: the rest would be left beside the new ones; choose another --out"
+            f"{folder} holds {plural(len(existing), 'record')} of an earlier, larger demo and "
+            f"this one writes {planned}: the rest would be left beside the new ones; choose "
+            "another --out"
         )

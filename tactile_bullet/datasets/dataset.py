@@ -36,6 +36,7 @@ from typing import Any
 
 import numpy as np
 
+from ..console import plural
 from ..errors import UsageError
 from ..records import GraspRecord
 from .integrity import (
@@ -235,7 +236,7 @@ class LoadedRecords:
             parts.append(f"{len(damaged)} damaged part{'s' * (len(damaged) > 1)}: "
                          + "; ".join(str(p) for p in damaged))  # fmt: skip
         if missing:
-            parts.append(f"{missing} tasks never generated")
+            parts.append(f"{plural(missing, 'task')} never generated")
         return f"--allow-partial: {', '.join(parts)}"
 
     def as_json(self) -> dict[str, Any]:

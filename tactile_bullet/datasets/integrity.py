@@ -16,6 +16,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+from ..console import plural
 from ..errors import UsageError
 from .shards import (
     _SHA256,
@@ -43,7 +44,7 @@ class Problem:
     """Sweep tasks of its block that ``generate --resume`` would simulate again."""
 
     def __str__(self) -> str:
-        lost = f" ({self.records} records)" if self.records else ""
+        lost = f" ({plural(self.records, 'record')})" if self.records else ""
         return f"{self.file}: {self.problem}{lost}"
 
     def as_dict(self) -> dict[str, Any]:
@@ -142,13 +143,14 @@ def _entry_problem(entry: Any, manifest: Mapping[str, Any], failed: Mapping[int,
         return "tasks is not a list of task indices"
     own = block_tasks(manifest, block)
     if len(tasks) != records:
-        return f"lists {records} records but {len(tasks)} tasks"
+        return f"lists {plural(records, 'record')} but {plural(len(tasks), 'task')}"
     if sorted(set(tasks)) != tasks or not all(t in own for t in tasks):
         return f"tasks are not distinct tasks of block {block} in order"
     if failed.get(block, 0) != n_failed:
         return f"counts {n_failed} failed tasks, the manifest's failed list {failed.get(block, 0)}"
     if records + n_failed != len(own):
-        return f"holds {records} records and {n_failed} failures; its block has {len(own)} tasks"
+        return (f"holds {plural(records, 'record')} and {plural(n_failed, 'failure')}; its "
+                f"block has {plural(len(own), 'task')}")  # fmt: skip
     return ""
 
 
@@ -246,8 +248,8 @@ def _decoded_problem(
     except DECODE_ERRORS as exc:
         return f"undecodable ({_first_line(exc)})", []
     if not isinstance(decoded, list) or len(decoded) != entry["records"]:
-        count = len(decoded) if isinstance(decoded, list) else "no"
-        return f"holds {count} records, the manifest lists {entry['records']}", []
+        held = plural(len(decoded), "record") if isinstance(decoded, list) else "no records"
+        return f"holds {held}, the manifest lists {entry['records']}", []
     return "", decoded
 
 

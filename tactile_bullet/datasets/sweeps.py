@@ -5,6 +5,11 @@ A sweep is plain data, read from TOML or taken from a preset, and expands into a
 coordinate, the rotation) is either a list of values or a ``{min, max}`` range, expanded as a
 grid or drawn at random. The TOML format, the presets and the limits are described for users
 in ``docs/sweeps.md``; mesh files join as ``[[objects]]`` tables (``objects/meshes.py``).
+
+A ``[randomize]`` table draws the hand and physics per grasp (friction, thresT, closing speed,
+phalanx lengths, joint reading offsets, J1/J2 coupling, contact stiffness, control rate), each
+record keeping what it drew: ``datasets/randomize.py`` has its keys; the ``randomized`` preset
+is the thesis preset with ``randomize.RANDOMIZED_TABLE``.
 """
 
 from __future__ import annotations
@@ -30,6 +35,7 @@ from ..records import (
 if TYPE_CHECKING:
     from ..objects.meshes import MeshSource
     from ..objects.shapes import Shape
+    from .randomize import Randomization
 
 Dimension = tuple[float, ...] | dict[str, float]
 """A list of values, or {"min", "max"} (+ "steps" in grid mode)."""
@@ -41,7 +47,7 @@ such as ``samples = 1000000000`` or a grid of 1e12 points is refused before anyt
 allocated (:meth:`Sweep.size`). Split larger collections into several datasets."""
 
 SHAPE_KEYS = ("name", "params", "offset_x", "offset_y", "offset_z", "rotation_deg", "samples")
-SWEEP_KEYS = ("name", "mode", "samples", "controller", "shapes", "objects")
+SWEEP_KEYS = ("name", "mode", "samples", "controller", "shapes", "objects", "randomize")
 POSE_KEYS = ("offset_x", "offset_y", "offset_z", "rotation_deg", "samples")
 
 
@@ -98,6 +104,8 @@ class Sweep:
     samples: int = 10
     controller: ControllerSettings = field(default_factory=ControllerSettings)
     objects: tuple[ObjectSweep, ...] = ()
+    randomize: Randomization | None = None
+    """The ``[randomize]`` table: hand and physics drawn per grasp (``datasets/randomize.py``)."""
 
     # --- construction -------------------------------------------------------------------
 
@@ -121,6 +129,13 @@ class Sweep:
             controller = ControllerSettings(**controller_data)
         except (TypeError, ValueError) as exc:  # UsageError is a ValueError
             raise UsageError(f"{source}: [controller] {exc}") from None
+        randomize = None
+        if "randomize" in data:
+            from .randomize import Randomization
+
+            randomize = Randomization.from_dict(
+                data["randomize"], f"{source}: [randomize]", controller
+            )
         shapes_data = data.get("shapes", [])
         objects_data = data.get("objects", [])
         if not isinstance(shapes_data, list) or not isinstance(objects_data, list):
@@ -145,6 +160,7 @@ class Sweep:
             samples=samples,
             controller=controller,
             objects=objects,
+            randomize=randomize,
         )
 
     @classmethod
@@ -161,7 +177,9 @@ class Sweep:
             "samples": self.samples,
             "controller": controller_dict(self.controller),
             "shapes": [_shape_dict(s) for s in self.shapes],
-        } | ({"objects": [_object_dict(o) for o in self.objects]} if self.objects else {})
+        } | ({"objects": [_object_dict(o) for o in self.objects]} if self.objects else {}) | (
+            {"randomize": self.randomize.to_dict()} if self.randomize is not None else {}
+        )
 
     # --- expansion ----------------------------------------------------------------------
 
@@ -236,8 +254,12 @@ class Sweep:
                 )
                 specs.append((obj.name, {}, pose, obj.source))
         seeds = np.random.SeedSequence(int(seed)).generate_state(len(specs), dtype=np.uint32)
+        from .randomize import draw_for_task
+
+        ctl = self.controller
         return [
-            GraspTask(i, name, params, pose, self.controller, int(s), mesh)
+            GraspTask(i, name, params, pose, draw_for_task(self.randomize, ctl, int(s)), int(s),
+                      mesh)  # fmt: skip
             for i, ((name, params, pose, mesh), s) in enumerate(zip(specs, seeds, strict=True))
         ]
 
@@ -360,12 +382,24 @@ def _temporal() -> Sweep:
     return Sweep("temporal", tuple(shapes), mode="random", samples=40)
 
 
+def _randomized() -> Sweep:
+    """The thesis preset with the hand and physics drawn per grasp
+    (``randomize.RANDOMIZED_TABLE``): training data for a hand that is not our simulator's."""
+    from .randomize import RANDOMIZED_TABLE, Randomization
+
+    thesis = _thesis()
+    return Sweep(
+        "randomized", thesis.shapes, randomize=Randomization.from_dict(RANDOMIZED_TABLE)
+    )
+
+
 PRESETS = {
     "thesis": _thesis,
     "modified": _modified,
     "sequential": _sequential,
     "smoke": _smoke,
     "temporal": _temporal,
+    "randomized": _randomized,
 }
 
 

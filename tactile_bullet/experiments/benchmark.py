@@ -11,13 +11,16 @@ scores each on every level of every protocol, and writes into ``out``:
 
 A row is ``{"protocol", "level", "descriptor", "classifier", "training", "accuracy",
 "headline", "test_records"}``: ``training`` is ``clean`` (the simulated grasps as they are) or
-``noise-aware`` (each also presented perturbed, ``robust.augment``); exactly one level per
-protocol is the headline.
+``noise-aware`` (each also presented perturbed, ``robust.augment``) or ``randomized`` (the
+protocol's training set simulated with the hand and physics drawn per grasp,
+``protocols.randomized_name``; opt-in, it simulates the training sets once more); exactly one
+level per protocol is the headline.
 """
 
 from __future__ import annotations
 
 import json
+import math
 import os
 import time
 import zlib
@@ -27,12 +30,15 @@ from typing import Any
 
 import numpy as np
 
+from ..console import plural
 from ..errors import UsageError
 from ..learn.perturb import perturb_all
 from ..records import GraspRecord
 from . import protocols as P
 
-TRAININGS: tuple[str, ...] = ("clean", "noise-aware")
+TRAININGS: tuple[str, ...] = ("clean", "noise-aware", "randomized")
+"""As ``learn/trainings.py``'s (which ``train --training`` uses)."""
+DEFAULT_TRAININGS: tuple[str, ...] = ("clean", "noise-aware")
 QUICK_DESCRIPTORS = ("signature", "raw-joints", "contact-normals", "robust-signature",
                      "robust-joints")  # fmt: skip
 QUICK_CLASSIFIERS = ("svm", "knn")
@@ -124,7 +130,7 @@ def simulate_sets(
     for spec in specs:
         path = cache / spec.name
         if not _complete(path, spec):
-            log(f"simulating {spec.name} ({len(spec.sweep().tasks(spec.seed))} grasps)")
+            log(f"simulating {spec.name} ({plural(len(spec.sweep().tasks(spec.seed)), 'grasp')})")
             resume = (path / MANIFEST).exists()
             # small shards: a killed run loses at most 8 grasps per worker's block
             generate(spec.sweep(), path, workers=workers, resume=resume, seed=spec.seed,
@@ -168,7 +174,7 @@ def run_benchmark(
     protocols: Sequence[str] | str | None = None,
     descriptors: Sequence[str] | None = None,
     classifiers: Sequence[str] | None = None,
-    trainings: Sequence[str] = TRAININGS,
+    trainings: Sequence[str] = DEFAULT_TRAININGS,
     *,
     quick: bool | str = False,
     workers: int = 2,
@@ -202,7 +208,7 @@ def run_benchmark(
     }  # fmt: skip
     prepare_out(out, config)
     table = P.protocols(scale)
-    specs = P.needed_sets(names, scale)
+    specs = P.needed_sets(names, scale, trainings)
     simulate_sets(specs, cache_dir, int(workers), show, say)
 
     sets: dict[str, list[GraspRecord]] = {}
@@ -218,6 +224,8 @@ def run_benchmark(
         key = (train_set, training, desc)
         if key not in features:
             records = sets[train_set]
+            if training == "randomized":
+                records = sets[P.randomized_name(train_set)]
             if training == "noise-aware":
                 records = augment(records, seed=seed)
             features[key] = np.asarray(descs[desc].transform(records), float)
@@ -309,8 +317,12 @@ def headline_table(rows: Sequence[Mapping[str, Any]]) -> str:
 
 
 def plot_curves(rows, table: Mapping[str, P.Protocol], out: Path) -> list[Path]:
-    """``noise.png`` (accuracy vs sensor error) and ``shift.png`` (vs physics shift): one
-    panel per curve of the protocol, one line per method."""
+    """``noise.png`` (accuracy vs sensor error) and ``shift.png`` (vs physics shift) as small
+    multiples: one row of panels per curve of the protocol, one panel per descriptor, one line
+    per classifier and training in it, and the best method over all (thin black) in every
+    panel for reference. Error bars are 95% binomial intervals from each level's test-set size:
+    with 60 test grasps one grasp is 1.7 points, so wiggles inside the bars are sampling
+    noise, not a trend."""
     from .reports import _pyplot, _save
 
     written = []
@@ -322,39 +334,88 @@ def plot_curves(rows, table: Mapping[str, P.Protocol], out: Path) -> list[Path]:
                   if s and s != "clean"]  # fmt: skip
         if not series:  # only headline levels (the tiny scale): no curve to draw
             continue
-        plt = _pyplot()
-        fig, axes = plt.subplots(1, len(series), figsize=(5.0 * len(series), 4.2), squeeze=False)
-        methods = list(dict.fromkeys(
-            (r["descriptor"], r["classifier"], r["training"]) for r in rows
-            if r["protocol"] == name and r["accuracy"] is not None
-        ))  # fmt: skip
-        # colour: descriptor; marker: classifier; dashed: noise-aware training
-        descs = list(dict.fromkeys(m[0] for m in methods))
-        clfs = list(dict.fromkeys(m[1] for m in methods))
-        colours = plt.get_cmap("tab10")
-        for ax, s in zip(axes[0], series, strict=True):
-            levels = [
-                lv for lv in protocol.levels if lv.series in (s, "clean") and lv.x is not None
-            ]
-            levels.sort(key=lambda lv: lv.x)
-            for m in methods:
-                acc = {r["level"]: r["accuracy"] for r in rows if r["protocol"] == name
-                       and (r["descriptor"], r["classifier"], r["training"]) == m}  # fmt: skip
-                xs = [lv.x for lv in levels if acc.get(lv.name) is not None]
-                ys = [100 * acc[lv.name] for lv in levels if acc.get(lv.name) is not None]
-                ax.plot(
-                    xs, ys, "-" if m[2] == "clean" else "--",
-                    color=colours(descs.index(m[0]) % 10), marker="os^vDP*X"[clfs.index(m[1]) % 8],
-                    ms=4, lw=1.2, label=" + ".join(m),
-                )  # fmt: skip
-            ax.set_title(f"{name}: {s}")
-            ax.set_xlabel(protocol.curve or "")
-            ax.set_ylabel("accuracy (%)")
-            ax.set_ylim(0, 102)
-            ax.grid(alpha=0.3)
-        handles, labels = axes[0][0].get_legend_handles_labels()
-        fig.legend(handles, labels, loc="upper left", bbox_to_anchor=(1.0, 1.0), fontsize=7,
-                   ncol=1 + len(methods) // 25, frameon=False)  # fmt: skip
-        fig.tight_layout()
-        written.append(_save(fig, out / filename))
+        curves = {s: _curves(rows, protocol, name, s) for s in series}
+        descs = list(dict.fromkeys(m[0] for c in curves.values() for m in c))
+        if not descs:
+            continue
+        written.append(_save(_small_multiples(_pyplot(), name, protocol, curves, descs),
+                             out / filename))  # fmt: skip
     return written
+
+
+def _curves(rows, protocol: P.Protocol, name: str, series: str) -> dict[tuple, list[tuple]]:
+    """``{(descriptor, classifier, training): [(x, accuracy %, half-width %)]}`` along one
+    curve (its own levels and the clean one), levels without a score left out."""
+    levels = sorted((lv for lv in protocol.levels
+                     if lv.series in (series, "clean") and lv.x is not None),
+                    key=lambda lv: lv.x)  # fmt: skip
+    at = {lv.name: lv.x for lv in levels}
+    out: dict[tuple, list[tuple]] = {}
+    for r in rows:
+        if r["protocol"] != name or r["level"] not in at or r["accuracy"] is None:
+            continue
+        n = max(int(r.get("test_records") or 0), 1)
+        acc = float(r["accuracy"])
+        half = 196.0 * math.sqrt(acc * (1.0 - acc) / n) + 50.0 / n  # normal + continuity
+        out.setdefault((r["descriptor"], r["classifier"], r["training"]), []).append(
+            (at[r["level"]], 100.0 * acc, half)
+        )
+    return {m: sorted(points) for m, points in out.items()}
+
+
+def _small_multiples(plt, name: str, protocol: P.Protocol, curves, descs: list[str]):
+    """The figure of :func:`plot_curves`: per curve a block of panels, one per descriptor
+    (at most 4 a row)."""
+    clfs = list(dict.fromkeys(m[1] for c in curves.values() for m in c))
+    colours = plt.get_cmap("tab10")
+    per_block = -(-len(descs) // 4)  # rows of panels a curve takes, at most 4 panels a row
+    ncol = -(-len(descs) // per_block)  # as even as the rows allow: 5 -> 3 + 2, not 4 + 1
+    nrow = per_block * len(curves)
+    fig, axes = plt.subplots(nrow, ncol, figsize=(3.1 * ncol + 0.6, 2.45 * nrow + 1.0),
+                             sharey=True, squeeze=False)  # fmt: skip
+    for b, (s, methods) in enumerate(curves.items()):
+        best = max(methods, key=lambda m: np.mean([p[1] for p in methods[m]]))
+        bx, by, _ = zip(*methods[best], strict=True)
+        for k in range(per_block * ncol):
+            ax = axes[b * per_block + k // ncol][k % ncol]
+            if k >= len(descs):
+                ax.set_visible(False)
+                continue
+            desc = descs[k]
+            ax.plot(bx, by, color="0.75", lw=4, zorder=0, solid_capstyle="round")
+            for m, points in methods.items():
+                if m[0] != desc:
+                    continue
+                xs, ys, hs = zip(*points, strict=True)
+                lo = np.minimum(hs, ys)  # the interval stays within 0-100%
+                hi = np.minimum(hs, 100.0 - np.asarray(ys))
+                ax.errorbar(xs, ys, yerr=[lo, hi], color=colours(clfs.index(m[1]) % 10),
+                            ls="-" if m[2] == "clean" else "--", marker="o", ms=3, lw=1.2,
+                            elinewidth=0.7, capsize=2, alpha=0.9)  # fmt: skip
+            ax.set_ylim(0, 104)
+            ax.grid(alpha=0.3)
+            ax.set_title(f"{desc} ({s})", fontsize=8.5)
+            if k % ncol == 0:
+                ax.set_ylabel("accuracy (%)", fontsize=8)
+            ax.set_xlabel(protocol.curve or "", fontsize=7.5)
+            ax.tick_params(labelsize=7)
+        axes[b * per_block][0].text(
+            0.03, 0.04, "grey: " + " + ".join(best), transform=axes[b * per_block][0].transAxes,
+            fontsize=6.5, va="bottom",
+        )  # fmt: skip
+    from matplotlib.lines import Line2D
+
+    key = [Line2D([], [], color=colours(k % 10), marker="o", ms=3, label=c)
+           for k, c in enumerate(clfs)]  # fmt: skip
+    key += [
+        Line2D([], [], color="0.3", ls="-", label="clean training"),
+        Line2D([], [], color="0.3", ls="--", label="noise-aware training"),
+        Line2D([], [], color="0.75", lw=4, label="best method of the curve (named in its "
+               "first panel)"),
+    ]  # fmt: skip
+    fig.legend(handles=key, loc="lower center", ncol=3, fontsize=8, frameon=False,
+               bbox_to_anchor=(0.5, 0.0))  # fmt: skip
+    fig.suptitle(f"{name}: accuracy per descriptor (bars: 95% interval from the test-set "
+                 "size)", fontsize=11)  # fmt: skip
+    fig.tight_layout(rect=(0, 0.06, 1, 1))
+    return fig

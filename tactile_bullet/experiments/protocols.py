@@ -16,7 +16,14 @@ from the training ones along one axis a deployed system meets:
   gap's stand-in). Headline: every knob shifted by +-20% (friction 0.8 +- 20%, thresT and
   closing speed +-20%, phalanges +-2%), the same grasps once up, once down. The up and down
   sets of a level share their specs, as do the single-knob sets, so those compare grasp for
-  grasp; the unshifted level is the in-distribution test set (other draws, 60 grasps).
+  grasp; the unshifted level is the in-distribution test set (other draws, 60 grasps);
+- ``coupling-shift``: train at default physics; test on the in-distribution test grasps (the
+  same specs) made with another J1/J2 tendon rule (``sim/coupling.py``: equal torque, distal
+  first): a stand-in for another engine's or a real hand's tendon.
+
+Each protocol's training set also exists randomised (:func:`randomized_name`: the same specs
+with ``datasets.randomize.RANDOMIZED_TABLE`` drawn per grasp), read by the benchmark's
+``randomized`` training.
 
 A protocol names datasets (:class:`SetSpec`: a random-mode sweep and a seed) rather than holding
 records, so the benchmark simulates each set once through the dataset layer (sharded, resumable)
@@ -29,6 +36,7 @@ from __future__ import annotations
 from collections.abc import Sequence
 from dataclasses import dataclass, field, replace
 
+from ..datasets.randomize import RANDOMIZED_TABLE, Randomization
 from ..datasets.sweeps import ShapeSweep, Sweep
 from ..errors import UsageError
 from ..learn.perturb import SensorModel
@@ -70,6 +78,8 @@ class SetSpec:
     seed: int = 0
     extra: tuple[SetSpec, ...] = ()
     """More sets simulated into the same dataset (unseen-poses: offsets, then rotations)."""
+    randomize: Randomization | None = None
+    """Hand and physics drawn per grasp (the randomised training sets)."""
 
     def sweep(self) -> Sweep:
         """The random-mode sweep the dataset layer simulates for this set."""
@@ -94,7 +104,8 @@ class SetSpec:
                         samples=part.per_shape,
                     )
                 )
-        return Sweep(self.name, tuple(shapes), mode="random", controller=self.controller)
+        return Sweep(self.name, tuple(shapes), mode="random", controller=self.controller,
+                     randomize=self.randomize)  # fmt: skip
 
 
 @dataclass(frozen=True)
@@ -172,6 +183,12 @@ def sets(quick: bool | str = False) -> dict[str, SetSpec]:
                            ROTATIONS_DEG),),
         ),
     ]  # fmt: skip
+    for train in [s for s in out if s.name.endswith("-train")]:
+        out.append(replace(train, name=randomized_name(train.name),
+                           randomize=Randomization.from_dict(RANDOMIZED_TABLE)))  # fmt: skip
+    for rule in COUPLING_SHIFTS:
+        out.append(SetSpec(f"{tag}coupling-{rule}", n_test, TEST_FRACTIONS, TEST_X, TEST_Z,
+                           controller=replace(base, coupling=rule), seed=2))  # fmt: skip
     for s in _shift_fractions(quick):
         for sign, label in ((1, "up"), (-1, "down")):
             out.append(
@@ -193,6 +210,15 @@ def sets(quick: bool | str = False) -> dict[str, SetSpec]:
             out.append(SetSpec(f"shift-{label}", n_shift, TEST_FRACTIONS, TEST_X, TEST_Z,
                                controller=ctl, seed=8))  # fmt: skip
     return {s.name: s for s in out}
+
+
+COUPLING_SHIFTS: tuple[str, ...] = ("equal-torque", "distal-first")
+"""The tendon rules coupling-shift tests on (training uses the default, j2-first)."""
+
+
+def randomized_name(train_set: str) -> str:
+    """The randomised twin of a training set: the same specs and seed, hand drawn per grasp."""
+    return f"{train_set}-randomized"
 
 
 def _shift_fractions(quick: bool | str) -> tuple[float, ...]:
@@ -274,6 +300,16 @@ def protocols(quick: bool | str = False) -> dict[str, Protocol]:
             tuple(shift),
             curve="physics shift (%)",
         ),
+        "coupling-shift": Protocol(
+            "coupling-shift",
+            "train with the J1/J2 tendon giving J2 first; test on the held-out grasps made with "
+            "equal torque or the distal joint first",
+            f"{tag}demo-train",
+            tuple(
+                Level(rule, (f"{tag}coupling-{rule}",), headline=rule == "distal-first")
+                for rule in COUPLING_SHIFTS
+            ),
+        ),
     }
 
 
@@ -297,13 +333,17 @@ def resolve(names: str | Sequence[str] | None) -> list[str]:
     return [n for n in PROTOCOL_NAMES if n in items]
 
 
-def needed_sets(names: Sequence[str], quick: bool | str = False) -> list[SetSpec]:
-    """The sets the named protocols read, each once, in a fixed order."""
+def needed_sets(
+    names: Sequence[str], quick: bool | str = False, trainings: Sequence[str] = ()
+) -> list[SetSpec]:
+    """The sets the named protocols read, each once, in a fixed order (with the randomised
+    training sets where ``trainings`` holds "randomized")."""
     table = protocols(quick)
     wanted: list[str] = []
     for name in names:
         p = table[name]
-        for set_name in (p.train, *(t for level in p.levels for t in level.test)):
+        train = (p.train, randomized_name(p.train)) if "randomized" in trainings else (p.train,)
+        for set_name in (*train, *(t for level in p.levels for t in level.test)):
             if set_name not in wanted:
                 wanted.append(set_name)
     all_sets = sets(quick)

@@ -19,6 +19,7 @@ from typing import Any
 
 import numpy as np
 
+from ..console import plural
 from ..errors import UsageError
 from ..files import atomic_path, json_value, probe_folder, write_bytes_atomic
 
@@ -226,14 +227,15 @@ def confusion_text(cm: Sequence[Sequence[int]], classes: Sequence[str]) -> str:
 def summary_text(report: Mapping[str, Any]) -> str:
     """What ``evaluate`` prints on a terminal: accuracy, confusion matrix, per-bin accuracy."""
     lines = [
-        f"accuracy: {100 * report['accuracy']:.1f}% on {report.get('records', '?')} grasps",
+        f"accuracy: {100 * report['accuracy']:.1f}% on {_grasps(report)}",
         "",
         confusion_text(report["confusion_matrix"], report["classes"]),
         "",
     ]
     if report.get("no_contact"):
         lines.append(
-            f"{report['no_contact']} grasps touched too little to carry a shape (scored anyway)"
+            f"{plural(report['no_contact'], 'grasp')} touched too little to carry a shape "
+            "(scored anyway)"
         )
     if report.get("unknown_classes"):
         unknown = ", ".join(report["unknown_classes"])
@@ -315,24 +317,47 @@ def plot_confusion(
 
 
 def plot_bins(
-    bins: Mapping[str, Mapping[str, float]], path: str | os.PathLike, xlabel: str
+    bins: Mapping[str, Mapping[str, float]], path: str | os.PathLike, xlabel: str,
+    title: str = "",
 ) -> Path:
-    """Accuracy per bin as bars, each labelled with its number of grasps."""
+    """Accuracy per bin as bars: each bar says how many of its grasps were named right
+    ("6 of 8"), each tick how many grasps the bin holds, so a 100% bar of 2 grasps is not
+    read like one of 50."""  # fmt: skip
     plt = _pyplot()
     labels = list(bins)
     acc = [100.0 * bins[k]["accuracy"] for k in labels]
     fig, ax = plt.subplots(figsize=(1.3 * max(len(labels), 2) + 2, 3.2))
     bars = ax.bar(range(len(labels)), acc, color="tab:blue")
     for bar, key in zip(bars, labels, strict=True):
+        n = int(bins[key]["support"])
+        right = round(bins[key]["accuracy"] * n)
         ax.text(
             bar.get_x() + bar.get_width() / 2, bar.get_height() + 1,
-            f"n={bins[key]['support']}", ha="center", va="bottom", fontsize=8,
+            f"{right} of {n}", ha="center", va="bottom", fontsize=8,
         )  # fmt: skip
-    ax.set_xticks(range(len(labels)), labels)
-    ax.set_ylim(0, 110)
+    ticks = [f"{k}\n(n={int(bins[k]['support'])})" for k in labels]
+    ax.set_xticks(range(len(labels)), ticks)
+    ax.set_ylim(0, 112)
     ax.set_ylabel("accuracy (%)")
     ax.set_xlabel(xlabel)
+    if title:
+        ax.set_title(title, fontsize=10)
     return _save(fig, Path(path))
+
+
+def _grasps(report: Mapping[str, Any]) -> str:
+    """``"10 grasps"``, ``"1 grasp"``, ``"? grasps"`` where the report does not say."""
+    n = report.get("records")
+    return "? grasps" if n is None else plural(int(n), "grasp")
+
+
+def report_title(report: Mapping[str, Any], what: str) -> str:
+    """``signature + svm: 80.0% of 10 grasps; WHAT``: the method and its accuracy, so a
+    figure read alone says what it scores."""
+    model = report.get("model") or {}
+    method = " + ".join(str(model[k]) for k in ("descriptor", "classifier") if k in model)
+    score = f"{100 * report['accuracy']:.1f}% of {_grasps(report)}"
+    return f"{method or 'model'}: {score}\n{what}"
 
 
 REPORT_FILES: tuple[str, ...] = (
@@ -349,21 +374,24 @@ report is never replaced unasked."""
 def write_evaluation_report(report: Mapping[str, Any], out: str | os.PathLike) -> list[Path]:
     """report.json, confusion_matrix.png and the per-bin bar charts into folder ``out``."""
     out = report_dir(out)
+    matrix_title = report_title(report, "confusion matrix (colour: fraction of the true class)")
     written = [
         write_json(out / "report.json", report),
-        plot_confusion(report["confusion_matrix"], report["classes"], out / "confusion_matrix.png"),
-    ]
-    if report.get("by_size"):
-        label = "object size (third of the valid range)"
-        written.append(plot_bins(report["by_size"], out / "accuracy_by_size.png", label))
-    if report.get("by_position"):
-        written.append(
-            plot_bins(report["by_position"], out / "accuracy_by_position.png", "offset from centre")
-        )
-    if len(report.get("by_rotation", {})) > 1:
-        written.append(
-            plot_bins(report["by_rotation"], out / "accuracy_by_rotation.png", "object rotation")
-        )
+        plot_confusion(
+            report["confusion_matrix"], report["classes"], out / "confusion_matrix.png",
+            matrix_title,
+        ),
+    ]  # fmt: skip
+    axes = {
+        "by_size": ("accuracy_by_size.png", "object size (third of the valid range)"),
+        "by_position": ("accuracy_by_position.png", "offset from the grasp centre"),
+        "by_rotation": ("accuracy_by_rotation.png", "object rotation about the palm normal"),
+    }
+    for kind, (name, label) in axes.items():
+        bins = report.get(kind) or {}
+        if len(bins) > (1 if kind == "by_rotation" else 0):
+            title = report_title(report, f"accuracy by {kind[3:]}")
+            written.append(plot_bins(bins, out / name, label, title))
     return written
 
 
@@ -383,26 +411,51 @@ def plot_signatures(records: Sequence, path: str | os.PathLike, per_shape: int =
         raise UsageError("no records to draw signatures of")
     names = sorted(by_shape)
     fig, axes = plt.subplots(
-        1, len(names), figsize=(2.8 * len(names), 3.0), sharey=True, squeeze=False
+        1, len(names), figsize=(2.9 * len(names), 3.6), sharey=True, squeeze=False
     )
     for ax, name in zip(axes[0], names, strict=True):
         for k, rec in enumerate(by_shape[name]):
             sig = signature_of(rec)
             x = np.linspace(0.0, 1.0, sig.lower.size)
             colour = f"C{k}"
-            ax.plot(x, sig.lower, color=colour, lw=1.2)
+            ax.plot(x, sig.lower, color=colour, lw=1.2, label=grasp_key(rec))
             ax.plot(x, sig.upper, color=colour, lw=1.2, ls="--")
         theory = _theoretical(name)
         if theory is not None:
             x = np.linspace(0.0, 1.0, theory.lower.size)
-            ax.plot(x, theory.lower, color="black", lw=2.0, alpha=0.6)
-            ax.plot(x, theory.upper, color="black", lw=2.0, alpha=0.6, ls="--")
+            ax.plot(x, theory.lower, color="black", lw=2.2)
+            ax.plot(x, theory.upper, color="black", lw=2.2, ls="--")
         ax.set_title(name)
         ax.set_xticks([0, 1], ["ff", "lf"])
-        ax.set_ylim(-1.15, 1.15)
-    axes[0][0].set_ylabel("enhanced signature (solid lower, dashed upper)")
-    fig.suptitle("grasps in colour, theoretical pattern (default size) in black", y=1.03)
+        ax.set_xlabel("finger (ff to lf)")
+        ax.set_ylim(-1.15, 1.75)
+        ax.set_yticks([-1.0, -0.5, 0.0, 0.5, 1.0])
+        ax.legend(loc="upper center", fontsize=6.5, frameon=False, handlelength=1.2,
+                  title="sizes, offset x (mm)", title_fontsize=6.5)  # fmt: skip
+    axes[0][0].set_ylabel("enhanced signature")
+    from matplotlib.lines import Line2D
+
+    style = [
+        Line2D([], [], color="grey", lw=1.2, label="lower line"),
+        Line2D([], [], color="grey", lw=1.2, ls="--", label="upper line"),
+        Line2D([], [], color="black", lw=2.2, label="theoretical pattern (default size)"),
+    ]
+    fig.legend(handles=style, loc="lower center", ncol=3, frameon=False,
+               bbox_to_anchor=(0.5, -0.12))  # fmt: skip
+    fig.suptitle("enhanced signatures of training grasps (one colour per grasp: its size and "
+                 "offset in the key) and the theoretical pattern in black", y=1.02)  # fmt: skip
     return _save(fig, Path(path))
+
+
+def grasp_key(record) -> str:
+    """A grasp's legend entry: its sizes and offset along O-O' in mm, ``r 35, x +10``."""
+    sizes = " ".join(f"{_short(k)} {1000 * v:.0f}" for k, v in record.params.items())
+    return f"{sizes}, x {1000 * record.pose.offset[0]:+.0f}"
+
+
+def _short(param: str) -> str:
+    """``major_radius`` -> ``major r``: parameter names short enough for a legend."""
+    return param.replace("radius", "r").replace("length", "len").replace("_", " ")
 
 
 def _theoretical(shape: str):

@@ -30,6 +30,7 @@ from typing import Any
 import numpy as np
 from sklearn.model_selection import train_test_split
 
+from ..console import plural
 from ..errors import UsageError
 from ..learn.neural_forest import NeuralForestClassifier, per_class_accuracy
 
@@ -114,6 +115,13 @@ def disturbance(results: list[dict], orders: list[np.ndarray], n_classes: int) -
         return np.where(count > 0, total / np.maximum(count, 1), np.nan)
 
 
+def clipped_spread(values: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Mean over the rows (orders) of accuracies, and how far +-1 std reaches below and above
+    it, cut at 0 and 1: a bar past 100% would show an accuracy no order can have."""
+    mean, std = values.mean(axis=0), values.std(axis=0)
+    return mean, np.minimum(std, mean), np.minimum(std, 1.0 - mean)
+
+
 def plot(results: list[dict], matrix: np.ndarray, names: list[str], out: Path) -> list[Path]:
     import matplotlib
 
@@ -130,28 +138,40 @@ def plot(results: list[dict], matrix: np.ndarray, names: list[str], out: Path) -
     fig, ax = plt.subplots(figsize=(5, 3.5))
     for key, label in (("off_acc", "offline"), ("seq_acc", "sequential")):
         values = np.array([r[key] for r in results], dtype=float)
-        mean, std = values.mean(axis=0), values.std(axis=0)
-        ax.errorbar(k, mean, yerr=std, marker="o", capsize=3, label=label)
-    ax.set(xlabel="number of objects", ylabel="test accuracy", ylim=(0, 1.02))
+        mean, below, above = clipped_spread(values)
+        ax.errorbar(k, mean, yerr=[below, above], marker="o", capsize=3, label=label)
+    ax.set(xlabel="number of objects learnt", ylabel="test accuracy (known objects)",
+           ylim=(0, 1.02))  # fmt: skip
+    ax.set_xticks(k)
     ax.legend()
-    ax.set_title(f"offline vs sequential over {len(results)} orders")
+    ax.set_title(f"offline vs sequential learning\n(mean and std over {len(results)} orders)",
+                 fontsize=10)  # fmt: skip
     paths.append(out / FIGURES[0])
     _save(fig, paths[-1])
 
     fig, ax = plt.subplots(figsize=(5, 3.5))
     for key, label in (("off_updates", "offline"), ("seq_updates", "sequential")):
         ax.plot(k, np.mean([r[key] for r in results], axis=0), marker="o", label=label)
-    ax.set(xlabel="number of objects", ylabel="mean updates per tree")
+    ax.set(xlabel="number of objects learnt", ylabel="mean updates per tree")
     ax.legend()
+    ax.set_title("updates per tree as objects are learnt", fontsize=10)
+    ax.set_xticks(k)
     paths.append(out / FIGURES[1])
     _save(fig, paths[-1])
 
     fig, ax = plt.subplots(figsize=(5.5, 4.5))
-    limit = max(0.05, float(np.nanmax(np.abs(matrix))))
-    image = ax.imshow(matrix, cmap="RdBu", vmin=-limit, vmax=limit)
+    measured = np.isfinite(matrix)
+    limit = max(0.05, float(np.abs(matrix[measured]).max())) if measured.any() else 0.05
+    cmap = plt.get_cmap("RdBu").copy()
+    cmap.set_bad("0.8")  # "not measured" (a class with itself, pairs no order met) is no 0
+    image = ax.imshow(np.ma.masked_invalid(matrix), cmap=cmap, vmin=-limit, vmax=limit)
+    for a, b in zip(*np.nonzero(~measured), strict=True):
+        ax.text(b, a, "-", ha="center", va="center", color="0.4", fontsize=8)
     ax.set_xticks(range(len(names)), names, rotation=45, ha="right")
     ax.set_yticks(range(len(names)), names)
     ax.set(xlabel="class b (recall changes)", ylabel="class a (added)")
+    ax.set_title("disturbance: change in b's recall when a is learnt\n(grey '-': not measured)",
+                 fontsize=10)  # fmt: skip
     fig.colorbar(image, ax=ax, label="change in recall of b")
     paths.append(out / FIGURES[2])
     _save(fig, paths[-1])
@@ -192,7 +212,7 @@ def experiment(
     final_off = [r["off_acc"][-1] for r in results]
     final_seq = [r["seq_acc"][-1] for r in results]
     say(
-        f"final accuracy over {len(orders)} orders: offline {np.mean(final_off):.3f} "
+        f"final accuracy over {plural(len(orders), 'order')}: offline {np.mean(final_off):.3f} "
         f"+- {np.std(final_off):.3f}, sequential {np.mean(final_seq):.3f} "
         f"+- {np.std(final_seq):.3f}"
     )

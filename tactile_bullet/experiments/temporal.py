@@ -14,6 +14,7 @@ from typing import Any
 
 import numpy as np
 
+from ..console import plural
 from ..errors import UsageError
 from ..perception.temporal import DETECTORS, contact_truth, detect, finger_areas, g_of, gbin
 from ..realhand.names import UNKNOWN_SHAPE
@@ -255,14 +256,15 @@ def summary_text(doc: dict[str, Any]) -> str:
     det = doc["detectors"]
     if not det.get("contact_truth", True):
         lines = [
-            f"{doc['records']} grasps, {det['fingers']} fingers: recorded grasps carry no "
-            "contact truth, so the detectors' output is shown without an agreement figure",
+            f"{plural(doc['records'], 'grasp')}, {plural(det['fingers'], 'finger')}: recorded "
+            "grasps carry no contact truth, so the detectors' output is shown without an "
+            "agreement figure",
         ]
-        lines += [f"  {m:8s}: {det[m]['detected_non_contact']} fingers flagged out of contact"
-                  for m in DETECTORS]  # fmt: skip
+        lines += [f"  {m:8s}: {plural(det[m]['detected_non_contact'], 'finger')} flagged out "
+                  "of contact" for m in DETECTORS]  # fmt: skip
     else:
         lines = [
-            f"{doc['records']} grasps, {det['fingers']} fingers, "
+            f"{plural(doc['records'], 'grasp')}, {plural(det['fingers'], 'finger')}, "
             f"{det['measured_non_contact']} of them out of contact at the end",
         ]
     for m in DETECTORS if det.get("contact_truth", True) else ():
@@ -290,5 +292,5 @@ def summary_text(doc: dict[str, Any]) -> str:
             f"  training-free DTW: {100 * d['raw']['identified']:.1f}% raw, "
             f"{100 * d['corrected']['identified']:.1f}% corrected ({d['correction']})"
         )
-    lines.append(f"wrote {len(doc['outputs'])} files")
+    lines.append(f"wrote {plural(len(doc['outputs']), 'file')}")
     return "\n".join(lines) + "\n"

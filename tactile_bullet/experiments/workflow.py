@@ -16,6 +16,7 @@ from typing import Any
 
 import numpy as np
 
+from ..console import plural
 from ..datasets.bulk import GraspSpec, check_record_folder, save_records, simulate_many
 from ..errors import UsageError
 from ..records import GraspRecord, Pose
@@ -478,7 +479,8 @@ def demo(
     report = report_dir(out / "report")
     started = time.perf_counter()
     rng = np.random.default_rng(seed)
-    say(f"simulating {len(DEMO_SHAPES) * train_per_shape} training grasps ({workers} workers)")
+    say(f"simulating {len(DEMO_SHAPES) * train_per_shape} training grasps "
+        f"({plural(workers, 'worker')})")
     train_set = simulate_set(
         train_per_shape, TRAIN_FRACTIONS, TRAIN_OFFSETS, rng, workers, show, "train grasps"
     )

@@ -11,6 +11,11 @@ from ..hookspecs import hookimpl
 
 @hookimpl
 def register_descriptors(register):
+    from .coupled import (
+        CoupledJointsDescriptor,
+        CoupledSignatureDescriptor,
+        CoupledTimeSeriesDescriptor,
+    )
     from .descriptors import ContactNormalsDescriptor, RawJointsDescriptor, SignatureDescriptor
     from .robust import RobustJointsDescriptor, RobustSignatureDescriptor
     from .time_series import TimeSeriesDescriptor
@@ -22,5 +27,8 @@ def register_descriptors(register):
         TimeSeriesDescriptor,
         RobustSignatureDescriptor,
         RobustJointsDescriptor,
+        CoupledSignatureDescriptor,
+        CoupledJointsDescriptor,
+        CoupledTimeSeriesDescriptor,
     ):
         register(descriptor.name, descriptor)

@@ -26,6 +26,7 @@ def signature_summary(record) -> dict:
         return {
             "alpha_deg": None,
             "rotation_estimate_deg": None,
+            "rotation_estimate_withheld": None,
             "identified": None,
             "nearest_pattern": None,
             "distances": {},
@@ -39,9 +40,11 @@ def signature_summary(record) -> dict:
     corrected = identify_corrected(record)
     cal = load_calibration()
     alpha = alpha_of(sig, cal.line if cal is not None else "mean")
+    estimate, why_not = calibrated_estimate(alpha, cal, ident.nearest)
     return {
         "alpha_deg": alpha,
-        "rotation_estimate_deg": estimate_rotation_deg(alpha, cal, ident.nearest),
+        "rotation_estimate_deg": estimate,
+        "rotation_estimate_withheld": why_not,
         "identified": corrected.identification.name,
         "identified_uncorrected": ident.name,
         "nearest_pattern": ident.nearest,
@@ -49,3 +52,18 @@ def signature_summary(record) -> dict:
         "distances": ident.distances,
         "in_identification_range": in_range,
     }
+
+
+def calibrated_estimate(alpha_deg: float, cal, shape: str) -> tuple[float | None, str | None]:
+    """The rotation estimate (deg) and None, or None and why it is withheld: the calibration
+    lines were fitted on rotations within ``cal.range_deg`` only, and outside it an
+    estimate is an extrapolation of a weak line (a 25 mm off-centre sphere reads 95 deg)."""
+    if cal is None:
+        return None, "no rotation calibration is installed"
+    value = estimate_rotation_deg(alpha_deg, cal, shape)
+    if value is None:
+        return None, f"no calibration line for the nearest pattern ({shape})"
+    lo, hi = cal.range_deg
+    if not lo <= value <= hi:
+        return None, f"{value:.0f} deg is outside the calibrated {lo:g}-{hi:g} deg"
+    return value, None

@@ -11,11 +11,12 @@ Per finger (ff, mf, rf, lf), independently and all at once:
 The J1/J2 tendon is modelled in the controller (PyBullet ignores URDF transmissions): J0's
 increments go to J2 first, as on the real hand where the middle phalanx leads; once J2 is
 blocked (its effort over the threshold, or its limit) the tendon's further travel goes to J1.
-A joint that stops holds the angle it was measured at (position control, J3 at the sheet's
-2 N m, the J0 tendon at 1 N m). Before the fingers move, the thumb is brought to opposition,
-stopping where it meets the object, and held there. The grasp ends when every finger is done
-(or at ``max_time``, flagged ``did_not_settle``); the hand then holds its targets
-``settle_steps`` steps and the final state is read.
+That is the default ``ControllerSettings.coupling``; ``sim/coupling.py`` holds it and the other
+rules (equal torque, distal first). A joint that stops holds the angle it was measured at
+(position control, J3 at the sheet's 2 N m, the J0 tendon at 1 N m). Before the fingers move,
+the thumb is brought to opposition, stopping where it meets the object, and held there. The
+grasp ends when every finger is done (or at ``max_time``, flagged ``did_not_settle``); the hand
+then holds its targets ``settle_steps`` steps and the final state is read.
 """
 
 from __future__ import annotations
@@ -38,6 +39,7 @@ from ..hand import (
 )
 from ..objects.shapes import Shape
 from ..records import ControllerSettings, GraspRecord, Pose
+from .coupling import Tendon, advance
 from .scene import Scene
 
 J3, J0 = 0, 1
@@ -61,7 +63,8 @@ def resolve_shape(name: str) -> Shape:
 class _Finger:
     """Algorithm 1's state for one long finger."""
 
-    __slots__ = ("name", "j3", "j2", "j1", "stage", "t3", "t2", "t1", "j2_free", "links")
+    __slots__ = ("name", "j3", "j2", "j1", "stage", "t3", "t2", "t1", "j2_free", "j1_free",
+                 "links")  # fmt: skip
 
     def __init__(self, name: str, scene: Scene) -> None:
         up = name.upper()
@@ -69,7 +72,7 @@ class _Finger:
         self.j3, self.j2, self.j1 = (JOINT_NAMES.index(f"{up}J{k}") for k in (3, 2, 1))
         self.stage = J3
         self.t3 = self.t2 = self.t1 = 0.0
-        self.j2_free = True
+        self.j2_free = self.j1_free = True
         ids = scene.link_index
         self.links = (
             ids[f"{name}proximal"],
@@ -102,11 +105,14 @@ def simulate_grasp(
     scene = Scene(
         spec, values, pose, timestep=ctl.timestep, gui=gui, visual=scene_hook is not None,
         friction=ctl.friction, phalanx_scale=ctl.phalanx_scale,
+        contact_stiffness=ctl.contact_stiffness,
     )  # fmt: skip
     try:
         record = _run(scene, spec, values, pose, ctl, int(seed), scene_hook)
     finally:
         scene.close()
+    if ctl.joint_offsets:
+        record = offset_readings(record, ctl.joint_offsets)
     identity = getattr(spec, "identity", None)  # a mesh file's (meshes.MeshShape)
     return dataclasses.replace(record, mesh=identity) if identity else record
 
@@ -315,31 +321,21 @@ class _GraspRun:
         self.tendon_tick(f, e2, e1, states, links)
 
     def tendon_tick(self, f: _Finger, e2: float, e1: float, states, links) -> None:
-        """Stage J0: the tendon's travel goes to J2 while it is free, then to J1; the finger is
-        done when J1 is blocked (or at its limit once J2 is)."""
-        thres, delta, upper, targets = (
-            self.ctl.thres_t,
-            self.ctl.delta,
-            self.scene.upper,
-            self.targets,
-        )
+        """Stage J0: the tendon's travel goes to J2 and J1 by the controller's coupling rule
+        (``sim/coupling.py``; by default J2 while it is free, then J1)."""
         if self.torque_mode:
-            j2_blocked, j1_blocked = e2 > thres, e1 > thres
+            blocked = (e2 > self.ctl.thres_t, e1 > self.ctl.thres_t)
         else:
-            j2_blocked, j1_blocked = f.links[1] in links, bool(f.links[2] & links)
-        if f.j2_free and (j2_blocked or f.t2 >= upper[f.j2]):
-            f.j2_free = False
-            f.t2 = targets[f.j2] = states[1][0]
-        if j1_blocked or (not f.j2_free and f.t1 >= upper[f.j1]):
+            blocked = (f.links[1] in links, bool(f.links[2] & links))
+        upper = self.scene.upper
+        tendon = advance(
+            self.ctl.coupling, Tendon(f.t2, f.t1, f.j2_free, f.j1_free), blocked,
+            (states[1][0], states[2][0]), self.ctl.delta, (upper[f.j2], upper[f.j1]),
+        )  # fmt: skip
+        f.t2, f.t1, f.j2_free, f.j1_free = tendon.t2, tendon.t1, tendon.free2, tendon.free1
+        self.targets[f.j2], self.targets[f.j1] = f.t2, f.t1
+        if tendon.done:
             f.stage = DONE
-            f.t1 = targets[f.j1] = states[2][0]
-            return
-        if f.j2_free:
-            f.t2 = min(f.t2 + delta, upper[f.j2])
-            targets[f.j2] = f.t2
-        else:
-            f.t1 = min(f.t1 + delta, upper[f.j1])
-            targets[f.j1] = f.t1
 
     def stop_finger(self, f: _Finger, states) -> None:
         """Early stop: the finger holds the angles it has now and is done."""
@@ -458,6 +454,20 @@ def sweep_clear_fraction(
     for j in joint_ids:
         c.resetJointState(hand, j, 0.0, 0.0)
     return clear / SWEEP_POSES
+
+
+def offset_readings(record: GraspRecord, offsets) -> GraspRecord:
+    """The record as sensors with calibration ``offsets`` (rad, ``records.OFFSET_JOINTS``
+    order) report it: each offset added to its joint's sampled and final angles. The controller
+    ran on the true angles; only what the hand reports is shifted."""
+    from ..records import OFFSET_JOINTS
+
+    cols = [record.joint_index(name) for name in OFFSET_JOINTS]
+    shift = np.zeros(len(record.joint_names))
+    shift[cols] = offsets
+    return dataclasses.replace(
+        record, angles=record.angles + shift, final_angles=record.final_angles + shift
+    )
 
 
 def timed_grasp(*args, **kwargs) -> tuple[GraspRecord, float]:

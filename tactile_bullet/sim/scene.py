@@ -54,6 +54,10 @@ its wrist took no part). Welded in the URDF the simulator loads, so the palm joi
 base: a motor on the wrist made the solver oscillate once two fingers pressed, and a lock by
 zero-width limits yielded 7 deg under a large torus. Records report them at 0 rad."""
 
+CONTACT_DAMPING_RATIO = 0.01
+"""Contact damping (N s/m) per unit of ``contact_stiffness`` (N/m) on a soft contact: a 10 ms
+time constant, which keeps a fingertip pressed at thresT from bouncing at 240 Hz."""
+
 SOLVER_ITERATIONS = 50
 """Bullet's default (the contact solver is tuned for it at 240 Hz)."""
 
@@ -200,8 +204,10 @@ class Scene:
         visual: bool = False,
         friction: float = FRICTION,
         phalanx_scale: float = 1.0,
+        contact_stiffness: float = 0.0,
     ) -> None:
         self.friction, self.phalanx_scale = float(friction), float(phalanx_scale)
+        self.contact_stiffness = float(contact_stiffness)
         p = import_pybullet()
         from pybullet_utils import bullet_client
 
@@ -298,6 +304,11 @@ class Scene:
                 baseOrientation=self.placement.orientation,
             )
             c.changeDynamics(body, -1, lateralFriction=self.friction)
+            if self.contact_stiffness > 0:
+                c.changeDynamics(
+                    body, -1, contactStiffness=self.contact_stiffness,
+                    contactDamping=CONTACT_DAMPING_RATIO * self.contact_stiffness,
+                )  # fmt: skip
             bodies.append(body)
         if visual:
             mesh = self.shape.mesh(**self.params)

@@ -76,6 +76,8 @@ class DTWTemplateClassifier(ClassifierMixin, BaseEstimator):
 
     required_descriptor = "signature"
     """The only descriptor whose columns this classifier understands."""
+    accepted_descriptors = ("coupled-signature",)
+    """The same columns, from J3 and J0 only (``learn/coupled.py``)."""
 
     def __init__(self, points=SIGNATURE_LINE_POINTS, temperature=1.0, integral_rule=True):
         self.points = points

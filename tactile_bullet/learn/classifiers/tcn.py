@@ -109,6 +109,8 @@ class TCNClassifier(ClassifierMixin, BaseEstimator):
     """
 
     required_descriptor = "time-series"
+    accepted_descriptors = ("coupled-time-series",)
+    """Same channels and layout: J2 and J1 both carry J0 / 2 (``learn/coupled.py``)."""
 
     def __init__(
         self,

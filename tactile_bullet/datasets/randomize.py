@@ -1,0 +1,233 @@
+"""Randomised grasps: a sweep's ``[randomize]`` table draws the hand and physics per grasp.
+
+A model trained at one simulator's physics learns that simulator: on grasps of another engine
+with an independently written hand (issue 19) learned methods fell to 34-68%. Domain
+randomisation trains on many plausible hands instead, drawing per grasp the knobs a real hand
+varies in. Each key is a list (one value drawn uniformly from it) or a ``{min, max}`` range
+(drawn uniformly); a key left out keeps the sweep's ``[controller]`` value::
+
+    [randomize]
+    friction = { min = 0.5, max = 1.2 }          # Coulomb friction, hand and object
+    thres_t = { min = 0.28, max = 0.42 }         # N m, Algorithm 1's stop threshold
+    closing_speed = { min = 1.0, max = 1.9 }     # rad/s of the joint targets
+    phalanx_scale = { min = 0.95, max = 1.05 }   # every phalanx's length factor
+    joint_offset_deg = 3.0                       # each FCI joint's reading offset, +-3 deg
+    coupling = ["j2-first", "equal-torque", "distal-first"]   # J1/J2 tendon (sim/coupling.py)
+    contact_stiffness = [0, 3000, 10000, 30000]  # N/m; 0 is the engine's rigid contact
+    control_rate = [240, 120]                    # Hz of Algorithm 1's ticks
+
+Every drawn value lands in the grasp's ``ControllerSettings``, so each record says which hand
+made it (fields at their defaults are left out of the saved form: records of sweeps without
+the table stay byte-identical). The draw is seeded by the grasp's own seed, so a grasp re-run
+alone (a resumed dataset, a subset) gets the same hand.
+
+``control_rate`` sets ``control_every`` (physics steps per tick, at the ``[controller]``
+timestep) and ``closing_speed`` sets ``delta`` for that rate: the two are independent knobs.
+The engine is not drawn yet: it joins as one more key (``engine = ["bullet", "mujoco"]``) once
+several engines are installed (issue 19); see :func:`draw`.
+"""
+
+from __future__ import annotations
+
+import itertools
+import math
+from collections.abc import Mapping
+from dataclasses import dataclass, fields, replace
+from typing import Any
+
+import numpy as np
+
+from ..errors import UsageError
+from ..records import COUPLINGS, MAX_JOINT_OFFSET, OFFSET_JOINTS, ControllerSettings
+
+Choice = tuple[float, ...] | dict[str, float]
+"""A list of values, or {"min", "max"}."""
+
+NUMERIC_KEYS = ("friction", "thres_t", "closing_speed", "phalanx_scale", "contact_stiffness",
+                "control_rate")  # fmt: skip
+KEYS = (*NUMERIC_KEYS, "joint_offset_deg", "coupling")
+DRAW_SALT = 0x52414E44
+"""Mixed into each grasp's seed so the hand's draw is independent of anything else seeded by
+it."""
+
+
+@dataclass(frozen=True)
+class Randomization:
+    """What ``[randomize]`` draws (None: not drawn, the ``[controller]`` value stays)."""
+
+    friction: Choice | None = None
+    thres_t: Choice | None = None
+    closing_speed: Choice | None = None
+    phalanx_scale: Choice | None = None
+    contact_stiffness: Choice | None = None
+    control_rate: Choice | None = None
+    joint_offset_deg: float | None = None
+    coupling: tuple[str, ...] | None = None
+
+    @classmethod
+    def from_dict(
+        cls, data: Any, where: str = "[randomize]", base: ControllerSettings | None = None
+    ) -> Randomization:
+        """Validate a ``[randomize]`` table against the sweep's ``[controller]`` settings
+        ``base``; every problem is a UsageError naming the key."""
+        if not isinstance(data, Mapping):
+            raise UsageError(f"{where} must be a table")
+        if "engine" in data:
+            raise UsageError(
+                f"{where} engine: only one physics engine is installed here, so there is none to "
+                "draw from (several engines come with the engine interface, issue 19)"
+            )
+        unknown = sorted(set(data) - set(KEYS))
+        if unknown:
+            raise UsageError(f"{where}: unknown key {unknown[0]!r} (keys: {', '.join(KEYS)})")
+        out: dict[str, Any] = {}
+        for key in NUMERIC_KEYS:
+            if key in data:
+                out[key] = _choice(data[key], f"{where} {key}")
+        if "joint_offset_deg" in data:
+            v = data["joint_offset_deg"]
+            limit = math.degrees(MAX_JOINT_OFFSET)
+            if isinstance(v, bool) or not isinstance(v, int | float) or not 0 <= v <= limit:
+                raise UsageError(
+                    f"{where} joint_offset_deg must be a number from 0 to {limit:g} (each "
+                    f"offset is drawn within +- it), got {v!r}"
+                )
+            out["joint_offset_deg"] = float(v)
+        if "coupling" in data:
+            names = data["coupling"]
+            names = [names] if isinstance(names, str) else names
+            if not isinstance(names, list) or not names or any(n not in COUPLINGS for n in names):
+                raise UsageError(
+                    f"{where} coupling must be a non-empty list of {', '.join(COUPLINGS)}, "
+                    f"got {data['coupling']!r}"
+                )
+            out["coupling"] = tuple(names)
+        result = cls(**out)
+        result.draw(base or ControllerSettings(), np.random.default_rng(0), check=True)
+        return result
+
+    def to_dict(self) -> dict[str, Any]:
+        """The table as the manifest stores it (keys drawn only)."""
+        out: dict[str, Any] = {}
+        for f in fields(self):
+            value = getattr(self, f.name)
+            if value is not None:
+                out[f.name] = list(value) if isinstance(value, tuple) else value
+        return out
+
+    def draw(
+        self, base: ControllerSettings, rng: np.random.Generator, check: bool = False
+    ) -> ControllerSettings:
+        """One grasp's settings: ``base`` with every drawn knob replaced. Draws happen in a
+        fixed order, one per key whether or not others are set. With ``check`` every
+        combination of the keys' extremes is tried, so a table that can draw invalid settings
+        (a fast closing speed at a slow control rate: too large a step) fails on reading.
+        """
+        if check:
+            for picks in itertools.product((min, max), repeat=len(NUMERIC_KEYS)):
+                ends = {k: _extreme(getattr(self, k), pick)
+                        for k, pick in zip(NUMERIC_KEYS, picks, strict=True)}  # fmt: skip
+                self._apply(base, ends, 0.0, None, checking=True)
+            return base
+        values = {k: _draw(getattr(self, k), rng) for k in NUMERIC_KEYS}
+        offsets = rng.uniform(-1.0, 1.0, len(OFFSET_JOINTS))
+        coupling = None
+        if self.coupling is not None:
+            coupling = self.coupling[int(rng.integers(len(self.coupling)))]
+        # The engine's draw goes here, last, so adding it keeps every earlier draw as it is.
+        return self._apply(base, values, offsets, coupling)
+
+    def _apply(self, base, values, offsets, coupling, checking: bool = False):
+        changes: dict[str, Any] = {}
+        for key in ("friction", "thres_t", "phalanx_scale", "contact_stiffness"):
+            if values[key] is not None:
+                changes[key] = round(float(values[key]), 6)
+        every = base.control_every
+        if values["control_rate"] is not None:
+            rate = float(values["control_rate"])
+            if rate <= 0:
+                raise UsageError(f"[randomize] control_rate must be positive Hz, got {rate:g}")
+            every = max(1, round(1.0 / (rate * base.timestep)))
+            changes["control_every"] = every
+        speed = values["closing_speed"]
+        if speed is None and "control_every" in changes:
+            speed = base.delta / (base.timestep * base.control_every)  # keep the speed
+        if speed is not None:
+            changes["delta"] = round(float(speed) * base.timestep * every, 6)
+        if self.joint_offset_deg:
+            bound = math.radians(self.joint_offset_deg)
+            changes["joint_offsets"] = tuple(
+                round(float(v), 6) for v in np.broadcast_to(offsets, len(OFFSET_JOINTS)) * bound
+            )
+        if coupling is not None:
+            changes["coupling"] = coupling
+        try:
+            return replace(base, **changes)
+        except UsageError as exc:
+            if checking:
+                why = f"[randomize] gives invalid settings at a range end: {exc}"
+                raise UsageError(why) from None
+            raise
+
+
+def draw_for_task(
+    randomization: Randomization | None, base: ControllerSettings, seed: int
+) -> ControllerSettings:
+    """The settings of the grasp with ``seed``: ``base`` itself without a table."""
+    if randomization is None:
+        return base
+    rng = np.random.default_rng(np.random.SeedSequence([int(seed), DRAW_SALT]))
+    return randomization.draw(base, rng)
+
+
+RANDOMIZED_TABLE: dict[str, Any] = {
+    "friction": {"min": 0.5, "max": 1.2},
+    "thres_t": {"min": 0.28, "max": 0.42},
+    "closing_speed": {"min": 1.0, "max": 1.9},
+    "phalanx_scale": {"min": 0.95, "max": 1.05},
+    "joint_offset_deg": 3.0,
+    "coupling": list(COUPLINGS),
+    "contact_stiffness": [0.0, 3000.0, 10000.0, 30000.0],
+    "control_rate": [240.0, 120.0],
+}
+"""The ``randomized`` preset's table: friction and thresT +-20-50% around the defaults (0.8,
+0.35 N m), closing speed 1.0-1.9 rad/s (default 1.44), phalanges +-5%, reading offsets within
++-3 deg (the sensor-noise protocol's headline bias), every coupling rule, rigid to soft
+(3 kN/m) contacts, control at 240 or 120 Hz."""
+
+
+def _choice(value: Any, what: str) -> Choice:
+    if isinstance(value, int | float) and not isinstance(value, bool):
+        value = [value]
+    if isinstance(value, list):
+        if not value or not all(
+            isinstance(v, int | float) and not isinstance(v, bool) and math.isfinite(v)
+            for v in value
+        ):
+            raise UsageError(f"{what} must be a non-empty list of numbers or a {{min, max}} table")
+        return tuple(float(v) for v in value)
+    if isinstance(value, Mapping):
+        if set(value) != {"min", "max"}:
+            raise UsageError(f"{what} range needs exactly the keys min and max")
+        try:
+            lo, hi = float(value["min"]), float(value["max"])
+        except (TypeError, ValueError):
+            raise UsageError(f"{what} range needs numeric min and max") from None
+        if not (math.isfinite(lo) and math.isfinite(hi)) or lo > hi:
+            raise UsageError(f"{what} range needs finite min <= max, got {lo:g} > {hi:g}")
+        return {"min": lo, "max": hi}
+    raise UsageError(f"{what} must be a list of numbers or a {{min, max}} table")
+
+
+def _draw(choice: Choice | None, rng: np.random.Generator) -> float | None:
+    if choice is None:
+        return None
+    if isinstance(choice, tuple):
+        return choice[int(rng.integers(len(choice)))]
+    return float(rng.uniform(choice["min"], choice["max"]))
+
+
+def _extreme(choice: Choice | None, pick) -> float | None:
+    if choice is None:
+        return None
+    return pick(choice) if isinstance(choice, tuple) else choice[pick.__name__]

@@ -11,7 +11,7 @@ from __future__ import annotations
 import contextlib
 import os
 import stat
-from collections.abc import Iterable, Iterator
+from collections.abc import Callable, Iterable, Iterator
 from pathlib import Path
 from typing import Any
 
@@ -152,6 +152,24 @@ def probe_folder(folder: str | os.PathLike, what: str) -> Path:
     return folder
 
 
+def probe_parent(path: str | os.PathLike, what: str) -> Path:
+    """Refuse, before long work, an output ``path`` whose folder is missing or not writable
+    (the output itself is written later, next to where this probe was)."""
+    import tempfile
+
+    path = Path(path)
+    parent = path.parent if str(path.parent) else Path(".")
+    if not parent.is_dir():
+        raise UsageError(f"{what} {path}: its folder {parent} does not exist")
+    try:
+        with tempfile.NamedTemporaryFile(dir=parent, prefix=".probe-"):
+            pass
+    except OSError as exc:
+        raise UsageError(f"{what} {path}: its folder {parent} is not writable "
+                         f"({exc.strerror or exc})") from None  # fmt: skip
+    return path
+
+
 def load_failure(exc: BaseException) -> str:
     """The first line of why numpy (or zipfile) could not read an ``.npz``, for a one-line
     error. Where numpy took the file for a pickle it advises loading it "unsafely using
@@ -180,12 +198,137 @@ def read_toml(path: str | os.PathLike, what: str) -> dict[str, Any]:
 
     path = Path(path)
     try:
-        return tomllib.loads(path.read_text(encoding="utf-8"))
-    except FileNotFoundError:
-        raise UsageError(f"{what} {path} does not exist") from None
+        return tomllib.loads(read_input_text(path, what))
     except UnicodeDecodeError:
         raise UsageError(f"{path} is not a UTF-8 text file (TOML must be UTF-8)") from None
     except OSError as exc:
         raise UsageError(f"cannot read {what} {path}: {exc.strerror or exc}") from None
     except tomllib.TOMLDecodeError as exc:
         raise UsageError(f"{path} is not valid TOML: {exc}") from None
+
+
+# --- inputs: one rule for every path a user names ------------------------------------------
+
+GIB = 1 << 30
+MIB = 1 << 20
+INPUT_LIMITS: dict[str, int] = {
+    "recording": 4 * GIB,
+    "table": 2 * GIB,
+    "calibration file": 1 * MIB,
+    "config file": 16 * MIB,
+    "model file": 2 * GIB,
+    "mesh file": 1 * GIB,
+    "record file": 256 * MIB,
+    "manifest": 64 * MIB,
+}
+"""The largest file accepted per kind of input (bytes). Far above any real input (an hour of a
+hand's joint states at 100 Hz is ~100 MB of bag; a model a few MB), low enough that a device,
+a sparse file or a mistaken path is refused before it is read into memory."""
+
+
+def input_path(
+    path: str | os.PathLike, what: str, limit: int | None = None, folder: bool = False
+) -> Path:
+    """``path`` checked the one way every input is: it exists, is a regular file (or, where
+    ``folder``, a directory, the form some formats take) and holds at most ``limit`` bytes
+    (default: :data:`INPUT_LIMITS` for ``what``). Only ``stat`` is called, so a FIFO is never
+    opened (opening one blocks until a writer comes) and a device is never read."""
+    path = Path(path)
+    if folder and path.is_dir():
+        return path
+    why = not_a_file(path)  # stat only: a FIFO is never opened
+    if why is not None:
+        raise UsageError(f"{what} {path} {why}")
+    try:
+        info = path.stat()
+    except OSError as exc:
+        raise UsageError(f"cannot read {what} {path}: {exc.strerror or exc}") from None
+    bound = INPUT_LIMITS.get(what, 1 * GIB) if limit is None else limit
+    if info.st_size > bound:
+        raise UsageError(
+            f"{what} {path} is {info.st_size:,} bytes, over the {bound:,}-byte limit for a "
+            f"{what}"
+        )
+    return path
+
+
+def read_input_text(path: str | os.PathLike, what: str, limit: int | None = None) -> str:
+    """A checked input file's text (UTF-8), never more than its kind's limit read."""
+    path = input_path(path, what, limit)
+    bound = INPUT_LIMITS.get(what, 1 * GIB) if limit is None else limit
+    try:
+        with open(path, "rb") as fh:
+            data = fh.read(bound + 1)
+    except OSError as exc:
+        raise UsageError(f"cannot read {what} {path}: {exc.strerror or exc}") from None
+    if len(data) > bound:  # grew between the check and the read
+        raise UsageError(f"{what} {path} is over the {bound:,}-byte limit for a {what}")
+    return data.decode("utf-8")
+
+
+def check_npz_members(
+    source: str | os.PathLike | bytes,
+    what: str,
+    allowed: Callable[[str], bool],
+    member_limit: int,
+    total_limit: int | None = None,
+) -> None:
+    """Refuse an ``.npz`` (a zip of ``.npy`` arrays) whose members are not all ``allowed`` or
+    would decompress past ``member_limit`` bytes each (``total_limit`` together) before any
+    is decompressed; the UsageError reads "``what`` <problem>". Both the zip's declared size
+    and each array's own header (its shape times its item size) are checked: numpy allocates
+    what the header says, and a zip bomb declares small sizes and inflates to gigabytes.
+    A source that is no zip archive at all is left to the loader, which says why."""
+    import io
+    import zipfile
+
+    total_limit = member_limit * 64 if total_limit is None else total_limit
+    src = io.BytesIO(source) if isinstance(source, bytes) else source
+    if not zipfile.is_zipfile(src):
+        return  # not an archive at all: the loader refuses it in its own words
+    try:
+        with zipfile.ZipFile(src) as zf:
+            total = 0
+            for info in zf.infolist():
+                name = info.filename[:-4] if info.filename.endswith(".npy") else info.filename
+                if not info.filename.endswith(".npy") or not allowed(name):
+                    raise UsageError(f"{what} holds an unexpected member {info.filename!r}")
+                total += info.file_size
+                if info.file_size > member_limit:
+                    raise UsageError(
+                        f"{what} has a member {info.filename!r} that declares "
+                        f"{info.file_size:,} bytes, over the {member_limit:,}-byte limit"
+                    )
+                if total > total_limit:
+                    raise UsageError(f"{what} declares {total:,} bytes in all, over the "
+                                     f"{total_limit:,}-byte limit")  # fmt: skip
+                with zf.open(info) as fh:
+                    size = _npy_data_bytes(fh)
+                if size is None or size > info.file_size:
+                    raise UsageError(
+                        f"{what} has a member {info.filename!r} whose header does not fit it"
+                    )
+    except UsageError:
+        raise
+    except (OSError, ValueError, EOFError, zipfile.BadZipFile) as exc:
+        why = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
+        raise UsageError(f"{what} is not a readable .npz file ({why})") from None
+
+
+def _npy_data_bytes(fh) -> int | None:
+    """The bytes an ``.npy`` stream's header says its array holds (None if unreadable)."""
+    from numpy.lib import format as npy
+
+    try:
+        version = npy.read_magic(fh)
+        if version == (1, 0):
+            shape, _, dtype = npy.read_array_header_1_0(fh, max_header_size=10_000)
+        elif version == (2, 0):
+            shape, _, dtype = npy.read_array_header_2_0(fh, max_header_size=10_000)
+        else:
+            return None
+    except (ValueError, EOFError, OSError):
+        return None
+    if any(int(s) < 0 for s in shape):
+        return None
+    return int(np.prod(shape, dtype=object)) * dtype.itemsize

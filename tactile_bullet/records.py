@@ -33,6 +33,13 @@ MAX_TIME_S = 60.0
 """Longest simulated grasp (s): the enclosure grasp ends in 1-3 s; a longer limit only grows
 the time series a record holds."""
 MAX_SETTLE_STEPS = 10_000
+RECORD_ARRAYS = ("time", "angles", "efforts", "final_angles", "contact_link",
+                 "contact_position", "contact_normal", "contact_force")  # fmt: skip
+"""The arrays a record is saved with (:meth:`GraspRecord.arrays`): a record file or shard
+holding any other member is refused, not read."""
+RECORD_MEMBER_LIMIT = 256 << 20
+"""The most bytes one saved array may decompress to (a simulated grasp's series are ~1 MB):
+a zip bomb is refused before it is inflated."""
 
 
 @dataclass(frozen=True)
@@ -382,7 +389,16 @@ def load_record(path: str | Path) -> GraspRecord:
     import zipfile
     import zlib
 
+    from .files import check_npz_members, input_path
+
     path = Path(path)
+    input_path(path, "record file")
+    try:
+        check_npz_members(path, str(path), lambda n: n == "meta" or n in RECORD_ARRAYS,
+                          RECORD_MEMBER_LIMIT)  # fmt: skip
+    except UsageError as exc:
+        why = str(exc).removeprefix(f"{path} ")
+        raise UsageError(f"{path} is not a readable grasp record ({why})") from None
     try:
         with np.load(path, allow_pickle=False) as data:
             meta = json.loads(str(data["meta"]))

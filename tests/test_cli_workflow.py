@@ -100,6 +100,25 @@ def test_identify_a_saved_record(folders, model_file, capsys):
     assert sum(doc["probabilities"].values()) == pytest.approx(1.0)
 
 
+def test_identify_says_when_the_model_cannot_tell_two_shapes_apart(
+    folders, model_file, capsys, tmp_path
+):
+    from tactile_bullet.learn.models import load_model, save_model
+
+    _, _, test = folders
+    record = str(sorted(test.glob("*.npz"))[0])
+    doc = run_json(capsys, ["identify", "--model", str(model_file), "--record", record])
+    assert "margin" in doc and "ambiguous" in doc and "cross_check" in doc
+    model = load_model(model_file)
+    model.info["doubt"] = {"margin": 2.0}  # every answer within it: ambiguous
+    doubtful = save_model(tmp_path / "doubtful.npz", model)
+    doc = run_json(capsys, ["identify", "--model", str(doubtful), "--record", record])
+    assert doc["ambiguous"][0] == doc["shape"] and doc["ambiguous"][1] != doc["shape"]
+    assert main(["identify", "--model", str(doubtful), "--record", record]) == 0
+    text = capsys.readouterr().out
+    assert f"AMBIGUOUS: {doc['ambiguous'][0]} or {doc['ambiguous'][1]}" in text
+
+
 def test_unknown_classifier_lists_the_installed_ones(folders, capsys, tmp_path):
     _, train, _ = folders
     err = run_error(

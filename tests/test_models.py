@@ -62,7 +62,8 @@ def test_model_remembers_names_parameters_and_versions(synthetic_split, tmp_path
     }  # fmt: skip
     assert loaded.classifier_params == {"n_neighbors": 3}
     assert loaded.estimator.n_neighbors == 3
-    assert loaded.info == {"records": len(synthetic_split[0])}
+    assert loaded.info["records"] == len(synthetic_split[0])
+    assert loaded.info["doubt"] == model.info["doubt"]  # the calibrated margin travels too
     assert loaded.software_version == __version__
     assert loaded.format_version == MODEL_FORMAT_VERSION
     assert loaded.features(synthetic_split[1][:2]).shape == (2, 42)

@@ -146,6 +146,7 @@ def test_signature_summary_has_the_grasp_json_fields(grasps):
         "alpha_deg", "rotation_estimate_deg", "identified", "identified_uncorrected",
         "nearest_pattern", "distances", "in_identification_range", "correction",
         "rotation_estimate_withheld",
+        "rotation_deg", "rotation_family",
     }  # fmt: skip
     assert summary["correction"]["detector"] == "dynamic"
     assert set(summary["distances"]) == set(default_library())
@@ -185,3 +186,20 @@ def test_identification_ranges_lie_inside_the_valid_ranges(capsys):
     assert points, "the packaged ranges hold single sizes (sphere radius, cone sizes)"
     for lo in points:
         assert f"only at {lo:g}" in text and f"[{lo:g}, {lo:g}]" not in text
+
+
+def test_rotation_from_the_grasp_alone_follows_a_turned_cylinder():
+    """The object turned about the palm normal, its shape unknown: the end-to-end reading
+    (tools/rotation_end_to_end.py) picks the cylinder's line and lands within a few degrees,
+    and turning the object further reads larger."""
+    from tactile_bullet.perception.summary import rotation_from_grasp
+    from tactile_bullet.records import Pose
+    from tactile_bullet.sim.grasp import simulate_grasp
+
+    read = {}
+    for deg in (0, 20):
+        rec = simulate_grasp("cylinder", {}, Pose(rotation=np.radians(deg)))
+        read[deg], family = rotation_from_grasp(rec)
+        assert family == "cylinder"
+        assert read[deg] == pytest.approx(deg, abs=3.0)
+    assert read[20] - read[0] > 15

@@ -286,7 +286,8 @@ def test_streaming_names_the_shape_once_the_grasp_is_held(model, held_out_record
     from tactile_bullet import Identifier
 
     ident = Identifier.load(model)
-    assert ident.result() == {"shape": None, "probabilities": {}, "rotation_deg": None,
+    assert ident.result() == {"shape": None, "probabilities": {}, "margin": None,
+                              "ambiguous": None, "cross_check": None, "rotation_deg": None,
                               "grasp_over": False, "samples": 0}  # fmt: skip
     t0 = 0.0
     want = workflow.predict(model, held_out_records)
@@ -296,8 +297,12 @@ def test_streaming_names_the_shape_once_the_grasp_is_held(model, held_out_record
         assert set(mid["probabilities"]) == set(model.classes)
         out = ident.result()
         assert out["grasp_over"] and out["shape"] == expected
-        assert out["probabilities"] == pytest.approx(workflow.identify(model, rec)["probabilities"],
-                                                     abs=1e-9)  # fmt: skip
+        once = workflow.identify(model, rec)
+        assert out["probabilities"] == pytest.approx(once["probabilities"], abs=1e-9)
+        # the same doubt as a one-off identification (the model's calibrated margin)
+        assert out["margin"] == pytest.approx(once["margin"], abs=1e-9)
+        assert out["ambiguous"] == once["ambiguous"]
+        assert out["cross_check"] == once["cross_check"]
         t0 += 1.0  # silence before the next grasp
 
 

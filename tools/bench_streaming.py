@@ -27,6 +27,8 @@ def main() -> None:
     parser.add_argument("--data", required=True, help="dataset with time series (generate)")
     parser.add_argument("--model", help="a trained model (default: train signature + svm)")
     parser.add_argument("--grasps", type=int, default=20, help="grasps replayed")
+    parser.add_argument("--no-cross-check", action="store_true",
+                        help="answer from the margin only (no shape fit at the grasp's end)")
     parser.add_argument("--result-every", type=int, default=10, help="messages between results")
     parser.add_argument("--threads", type=int, default=0, help="BLAS/OpenMP threads (0: default)")
     args = parser.parse_args()
@@ -50,7 +52,7 @@ def main() -> None:
         from threadpoolctl import threadpool_limits
 
         limiter = threadpool_limits(args.threads)
-    ident = Identifier.load(model)
+    ident = Identifier.load(model, cross_check=not args.no_cross_check)
     names = ["rh_" + n for n in JOINT_NAMES]
     updates, closing, over, over_cpu = [], [], [], []
     agree, t0 = 0, 0.0

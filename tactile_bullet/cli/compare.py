@@ -73,7 +73,8 @@ def run(args: argparse.Namespace) -> int:
 
 
 def comparison_table(rows: list[dict]) -> str:
-    head = ("descriptor", "classifier", "accuracy", "fit (s)", "latency (ms)")
+    head = ("descriptor", "classifier", "accuracy", "fit (s)", "latency (ms)",
+            "ambiguous (all/wrong/right)")  # fmt: skip
     body = [_cells(r) for r in rows]
     widths = [max(len(str(x)) for x in col) for col in zip(head, *body, strict=True)]
     lines = ["  ".join(str(c).ljust(w) for c, w in zip(row, widths, strict=True)).rstrip()
@@ -90,11 +91,24 @@ def comparison_table(rows: list[dict]) -> str:
 
 def _cells(row: dict) -> tuple[str, ...]:
     if row.get("accuracy") is None:
-        return (row["descriptor"], row["classifier"], "-", "-", "-")
+        return (row["descriptor"], row["classifier"], "-", "-", "-", "-")
     return (
         row["descriptor"],
         row["classifier"],
         f"{100 * row['accuracy']:.1f}%",
         f"{row['fit_time_s']:.3f}",
         f"{row['predict_latency_ms']:.2f}",
+        _flag_cell(row.get("ambiguous")),
     )
+
+
+def _flag_cell(doubt: dict | None) -> str:
+    """Shares of all, wrong and right answers flagged ambiguous ('-' where none apply)."""
+    if not doubt:
+        return "-"
+
+    def pct(v) -> str:
+        return "-" if v is None else f"{100 * v:.0f}%"
+
+    keys = ("flagged", "wrong_flagged", "right_flagged")
+    return "/".join(pct(doubt.get(k)) for k in keys)

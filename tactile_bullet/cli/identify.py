@@ -18,6 +18,14 @@ from .import_ import add_recording_options, identify_recording
 from .shape_info import add_mesh_options, mesh_shape
 
 
+def ambiguity_text(doc) -> str:
+    """What the text output adds to an answer the model is unsure of (empty otherwise)."""
+    pair = doc.get("ambiguous")
+    if not pair:
+        return ""
+    return f" - AMBIGUOUS: {pair[0]} or {pair[1]} (margin {doc['margin']:.3f})"
+
+
 def add_parser(sub) -> None:
     parser = sub.add_parser(
         "identify",
@@ -98,7 +106,7 @@ def run(args: argparse.Namespace) -> int:
     elif doc["shape"] is None:
         print(f"{doc['reason']} (grasped: {record.shape})")
     else:
-        print(f"identified: {doc['shape']} (grasped: {record.shape})")
+        print(f"identified: {doc['shape']}{ambiguity_text(doc)} (grasped: {record.shape})")
         ranked = sorted(doc["probabilities"].items(), key=lambda kv: -kv[1])
         for name, p in ranked:
             print(f"  {name:<20} {p:6.3f}")

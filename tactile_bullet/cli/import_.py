@@ -73,6 +73,7 @@ def run(args: argparse.Namespace) -> int:
     from collections import Counter
     from pathlib import Path
 
+    from ..files import probe_parent
     from ..realhand.recordings import check_dataset_out, read_recording, write_dataset
 
     start = time.perf_counter()
@@ -80,6 +81,7 @@ def run(args: argparse.Namespace) -> int:
         raise UsageError("--shape must not be empty")
     options = recording_options(args)
     check_dataset_out(Path(args.out), args.force)  # refuse before reading gigabytes
+    probe_parent(args.out, "--out")
     files, records = [], []
     for path in args.files:
         grasps = read_recording(path, shape=args.shape, **options)
@@ -136,14 +138,17 @@ def identify_recording(args: argparse.Namespace) -> int:
     doc["tally"] = recording_tally(answers)
     if len(answers) == 1:  # the one-grasp contract of `identify --json`
         doc["shape"], doc["probabilities"] = answers[0]["shape"], answers[0]["probabilities"]
+        doc["margin"], doc["ambiguous"] = answers[0]["margin"], answers[0]["ambiguous"]
     if args.json:
         emit_json(doc)
         return 0
     for a in answers:
         best = a["probabilities"].get(a["shape"], 1.0)
         label = f" (labelled {a['label']})" if a["label"] else ""
+        doubt = (f" - AMBIGUOUS: {a['ambiguous'][0]} or {a['ambiguous'][1]}"
+                 if a.get("ambiguous") else "")  # fmt: skip
         print(f"grasp {a['index'] + 1} at {a['start_s']:.2f}-{a['end_s']:.2f} s: "
-              f"{a['shape']} p={best:.3f}{label}")  # fmt: skip
+              f"{a['shape']} p={best:.3f}{doubt}{label}")  # fmt: skip
     print(tally_line(doc["tally"]))
     return 0
 

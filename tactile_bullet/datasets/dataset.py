@@ -48,6 +48,7 @@ from .integrity import (
     block_tasks,
     check_shards,
     read_manifest,
+    read_shard_bytes,
 )
 from .shards import DECODE_ERRORS, MANIFEST, NOT_GENERATED, decode_shard, decode_shard_metadata
 
@@ -98,9 +99,9 @@ class Dataset:
         """``decode`` of a shard's bytes once they are the ones the manifest lists; [] for a
         damaged shard when partial reads are allowed."""
         try:
-            data = (self.path / entry["file"]).read_bytes()
-        except OSError as exc:
-            return self._damaged(entry, f"unreadable ({exc.strerror or exc})")
+            data = read_shard_bytes(self.path / entry["file"], entry)
+        except UsageError as exc:
+            return self._damaged(entry, str(exc))
         why = _bytes_problem(entry, data)
         if not why:
             why, decoded = _decoded_problem(entry, data, decode)

@@ -18,6 +18,7 @@ from typing import Any
 
 from ..console import plural
 from ..errors import UsageError
+from ..files import INPUT_LIMITS, input_path, read_input_text
 from .shards import (
     _SHA256,
     DECODE_ERRORS,
@@ -28,6 +29,7 @@ from .shards import (
     decode_shard_metadata,
     shard_name,
 )
+from .sweeps import MAX_GRASPS
 
 
 @dataclass(frozen=True)
@@ -95,6 +97,8 @@ def manifest_problem(data: Any) -> str | None:
         return "config.shard_size is not a positive integer"
     if not _is_int(data["tasks"]) or data["tasks"] < 0:
         return "tasks is not a count"
+    if data["tasks"] > MAX_GRASPS:  # bounded before any loop over blocks or tasks
+        return f"tasks {data['tasks']:,} is over the {MAX_GRASPS:,} a dataset may hold"
     if not isinstance(data["shards"], list) or not isinstance(data["failed"], list):
         return "shards and failed must be lists"
     seen: set[int] = set()
@@ -223,10 +227,24 @@ def shard_problem(folder: Path, entry: Mapping[str, Any]) -> str:
     """Why a listed shard's content is not what the manifest says ("" when it is): unreadable,
     wrong size, checksum mismatch, undecodable, or another number of records."""
     try:
-        data = (folder / entry["file"]).read_bytes()
-    except OSError as exc:
-        return f"unreadable ({exc.strerror or exc})"
+        data = read_shard_bytes(folder / entry["file"], entry)
+    except UsageError as exc:
+        return str(exc)
     return _bytes_problem(entry, data) or _decoded_problem(entry, data, decode_shard_metadata)[0]
+
+
+def read_shard_bytes(path: Path, entry: Mapping[str, Any]) -> bytes:
+    """A listed shard's bytes, never more than a little over the size its entry lists (or the
+    record-file limit): a FIFO, device or grown file is refused with why, not read whole."""
+    limit = entry["bytes"] if _is_int(entry.get("bytes")) else INPUT_LIMITS["record file"]
+    try:
+        input_path(path, "shard", min(limit + 1, INPUT_LIMITS["record file"]))
+        return path.read_bytes()
+    except UsageError as exc:
+        why = str(exc).removeprefix(f"shard {path} ").removeprefix("is ")
+        raise UsageError(f"unreadable ({why})") from None
+    except OSError as exc:
+        raise UsageError(f"unreadable ({exc.strerror or exc})") from None
 
 
 def _bytes_problem(entry: Mapping[str, Any], data: bytes) -> str:
@@ -263,10 +281,10 @@ def read_manifest(folder: Path) -> dict[str, Any]:
     """The manifest of the dataset at ``folder``, validated (:func:`manifest_problem`);
     a UsageError naming the file otherwise."""
     path = folder / MANIFEST
+    if not path.exists() and not path.is_symlink():
+        raise UsageError(f"{folder} is not a dataset (no {MANIFEST})")
     try:
-        data = json.loads(path.read_text())
-    except FileNotFoundError:
-        raise UsageError(f"{folder} is not a dataset (no {MANIFEST})") from None
+        data = json.loads(read_input_text(path, "manifest"))
     except (OSError, ValueError) as exc:
         raise UsageError(f"{path} is unreadable ({_first_line(exc)})") from None
     why = manifest_problem(data)

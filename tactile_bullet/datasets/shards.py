@@ -17,8 +17,8 @@ import numpy as np
 
 from .. import __version__
 from ..errors import UsageError
-from ..files import write_bytes_atomic
-from ..records import GraspRecord, record_from_parts
+from ..files import check_npz_members, write_bytes_atomic
+from ..records import RECORD_ARRAYS, RECORD_MEMBER_LIMIT, GraspRecord, record_from_parts
 
 FORMAT = 1
 MANIFEST = "manifest.json"
@@ -67,6 +67,7 @@ def encode_shard(parts: Sequence[tuple[Mapping, Mapping[str, np.ndarray]]]) -> b
 def decode_shard(source: Path | bytes, full: bool = True) -> list[GraspRecord]:
     """The records of one shard (a file, or its bytes); time series left empty unless
     ``full``."""
+    _check_members(source)
     with np.load(_source(source), allow_pickle=False) as data:
         metas = json.loads(str(data["meta"]))
         keys = [k for k in data.files if k != "meta" and not k.endswith("__offsets")]
@@ -85,8 +86,19 @@ def decode_shard(source: Path | bytes, full: bool = True) -> list[GraspRecord]:
 
 def decode_shard_metadata(source: Path | bytes) -> list[dict]:
     """Only the records' metadata (shape, params, pose, ...): the arrays are not decompressed."""
+    _check_members(source)
     with np.load(_source(source), allow_pickle=False) as data:
         return json.loads(str(data["meta"]))
+
+
+def _check_members(source: Path | bytes) -> None:
+    where = "shard" if isinstance(source, bytes) else f"shard {source}"
+    # the bound a record file's array has: a default shard (32 grasps) holds a few MB
+    check_npz_members(source, where, _is_shard_member, RECORD_MEMBER_LIMIT)
+
+
+def _is_shard_member(name: str) -> bool:
+    return name == "meta" or name.removesuffix("__offsets") in RECORD_ARRAYS
 
 
 def _source(source: Path | bytes):

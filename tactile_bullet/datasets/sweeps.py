@@ -196,6 +196,14 @@ class Sweep:
                         sweep.offset_z, sweep.rotation_deg):  # fmt: skip
                 n *= len(dim) if isinstance(dim, tuple) else int(dim["steps"])
             total += n
+        for obj in self.objects:  # mesh objects count like shapes
+            if self.mode == "random":
+                total += obj.samples or self.samples
+                continue
+            n = 1
+            for dim in (obj.offset_x, obj.offset_y, obj.offset_z, obj.rotation_deg):
+                n *= len(dim) if isinstance(dim, tuple) else int(dim["steps"])
+            total += n
         return total
 
     def tasks(self, seed: int = 0) -> list[GraspTask]:

@@ -10,11 +10,12 @@ scores each on every level of every protocol, and writes into ``out``:
 - ``table.txt``: the headline table a terminal shows.
 
 A row is ``{"protocol", "level", "descriptor", "classifier", "training", "accuracy",
-"headline", "test_records"}``: ``training`` is ``clean`` (the simulated grasps as they are) or
-``noise-aware`` (each also presented perturbed, ``robust.augment``) or ``randomized`` (the
-protocol's training set simulated with the hand and physics drawn per grasp,
-``protocols.randomized_name``; opt-in, it simulates the training sets once more); exactly one
-level per protocol is the headline.
+"headline", "test_records", "ambiguous"}`` (``ambiguous``: the shares of answers, of right and
+of wrong answers flagged by the pair's calibrated doubt, ``learn/doubt.py``): ``training`` is
+``clean`` (the simulated grasps as they are) or ``noise-aware`` (each also presented
+perturbed, ``robust.augment``) or ``randomized`` (the protocol's training set simulated with
+the hand and physics drawn per grasp, ``protocols.randomized_name``; opt-in, it simulates the
+training sets once more); exactly one level per protocol is the headline.
 """
 
 from __future__ import annotations
@@ -185,6 +186,7 @@ def run_benchmark(
 ) -> dict[str, Any]:
     """Run the benchmark (module doc); returns the ``benchmark.json`` document. ``quick``:
     True/False (the --quick flag) or a scale name of ``protocols.SCALES``."""
+    from ..learn.doubt import calibrate_margin, cross_check_names
     from ..learn.robust import augment
     from ..plugins import compatible, get_classifier, get_descriptor
     from .reports import write_json, write_text_atomic
@@ -218,6 +220,8 @@ def run_benchmark(
         set_info[spec.name] = {"records": len(sets[spec.name]), "no_contact": missed}
     descs = {name: get_descriptor(name) for name in descriptors}
     fitted: dict[tuple, Any] = {}
+    thresholds: dict[tuple, dict[str, Any]] = {}
+    kept_records: dict[tuple, list[GraspRecord]] = {}
     features: dict[tuple, np.ndarray] = {}
 
     def train_features(train_set: str, training: str, desc: str) -> tuple[np.ndarray, np.ndarray]:
@@ -230,6 +234,7 @@ def run_benchmark(
                 records = augment(records, seed=seed)
             features[key] = np.asarray(descs[desc].transform(records), float)
             features[key + ("y",)] = labels_of(records)
+            kept_records[key] = records
         return features[key], features[key + ("y",)]
 
     rows: list[dict[str, Any]] = []
@@ -241,6 +246,7 @@ def run_benchmark(
         if not level.sensor.is_clean:
             test = perturb_all(test, level.sensor, level_seed(name, level.name, seed))
         y_test = labels_of(test)
+        seconds = None
         for desc in descriptors:
             x_test = np.asarray(descs[desc].transform(test), float) if test else None
             for clf in classifiers:
@@ -251,14 +257,27 @@ def run_benchmark(
                     if key not in fitted:
                         x, y = train_features(protocol.train, training, desc)
                         fitted[key] = get_classifier(clf).fit(x, y)
-                    accuracy = None
+                        thresholds[key] = calibrate_margin(
+                            lambda c=clf: get_classifier(c), x, y, seed=seed,
+                            records=kept_records[(protocol.train, training, desc)],
+                            classifier=clf,
+                        )  # fmt: skip
+                    accuracy, doubt = None, None
                     if x_test is not None:
-                        pred = np.asarray(fitted[key].predict(x_test)).astype(str)
+                        second = None
+                        if thresholds[key]["cross_check"] is not None:
+                            if seconds is None:  # the shape fit's answers, read once a level
+                                classes = sorted(str(c) for c in fitted[key].classes_)
+                                seconds = cross_check_names(test, classes)
+                            second = seconds
+                        pred, doubt = _scored(fitted[key], x_test, y_test, thresholds[key],
+                                              second)  # fmt: skip
                         accuracy = float(np.mean(pred == y_test))
                     rows.append({
                         "protocol": name, "level": level.name, "descriptor": desc,
                         "classifier": clf, "training": training, "accuracy": accuracy,
                         "headline": bool(level.headline), "test_records": len(test),
+                        "ambiguous": doubt,
                     })  # fmt: skip
         if bar is not None:
             bar.update(1)
@@ -276,6 +295,26 @@ def run_benchmark(
     figures = plot_curves(rows, table, out)
     doc["figures"] = [str(p) for p in figures]
     return doc
+
+
+def _scored(
+    estimator, x_test, y_test, calibration: Mapping[str, Any], seconds=None
+) -> tuple[np.ndarray, dict[str, Any]]:
+    """Predicted names and the row's ``ambiguous`` figures: the pair's threshold (calibrated
+    on held-out folds of its training set, ``learn/doubt.py``), its cross-check (the shape
+    fit's answers ``seconds``) and the shares of all, right and wrong answers flagged."""
+    from ..learn.doubt import cross_flags, flag_shares, flagged, margins
+
+    threshold = calibration["margin"]
+    pred = np.asarray(estimator.predict(x_test)).astype(str)
+    classes = [str(c) for c in estimator.classes_]
+    proba = np.asarray(estimator.predict_proba(x_test), dtype=float)
+    m = margins(proba, np.array([classes.index(n) for n in pred]))[0]
+    flags = flagged(m, threshold)
+    if seconds is not None:
+        flags = flags | cross_flags(pred, seconds)
+    shares = flag_shares(flags, pred == np.asarray(y_test).astype(str))
+    return pred, {"margin": threshold, "cross_check": calibration["cross_check"], **shares}
 
 
 def _bar(total: int, show: bool):

@@ -240,6 +240,15 @@ def summary_text(report: Mapping[str, Any]) -> str:
     if report.get("unknown_classes"):
         unknown = ", ".join(report["unknown_classes"])
         lines.append(f"shapes the model was not trained on (always counted wrong): {unknown}")
+    doubt = report.get("ambiguous")
+    if doubt and doubt.get("flagged") is not None:
+        pct = lambda v: "-" if v is None else f"{100 * v:.0f}%"  # noqa: E731
+        lines.append(
+            f"ambiguous: {pct(doubt['flagged'])} of answers flagged "
+            f"({pct(doubt.get('wrong_flagged'))} of wrong, {pct(doubt.get('right_flagged'))} "
+            "of right)"
+            + ("" if doubt.get("margin") is not None else ": no calibrated margin in this model")
+        )
     for kind in ("by_size", "by_position", "by_rotation"):
         bins = report.get(kind)
         if bins:

@@ -108,8 +108,12 @@ def train(
     classifier: str = "svm",
     params: Mapping[str, Any] | None = None,
     descriptor_params: Mapping[str, Any] | None = None,
+    doubt: bool = True,
 ):
     """Fit ``classifier`` (with estimator ``params``) on ``descriptor`` features of the records.
+
+    ``doubt``: also calibrate the model's ambiguity threshold on held-out folds of the records
+    (``learn/doubt.py``; costs ``doubt.FOLDS`` more fits), kept in ``info["doubt"]``.
 
     Returns a :class:`tactile_bullet.learn.models.Model` that remembers both names and
     parameters, so a saved model rebuilds the same features when it is loaded elsewhere."""
@@ -125,13 +129,23 @@ def train(
     reason = _incompatible(desc.name, classifier)
     if reason:
         raise UsageError(f"cannot train {classifier} on the {desc.name} descriptor: {reason}")
-    estimator = _fit(estimator, classifier, bool(params), desc.transform(records), y)
+    x = np.asarray(desc.transform(records), dtype=float)
+    estimator = _fit(estimator, classifier, bool(params), x, y)
+    info: dict[str, Any] = {}
+    if doubt:
+        from ..learn.doubt import calibrate_margin
+
+        # the ambiguity threshold, set on grasps each held out of a fit (learn/doubt.py)
+        info["doubt"] = calibrate_margin(
+            lambda: _estimator(classifier, params), x, y, records=records, classifier=classifier
+        )
     return Model(
         descriptor=desc.name,
         descriptor_params=dict(desc.params),
         classifier=classifier,
         classifier_params=dict(params or {}),
         estimator=estimator,
+        info=info,
     )
 
 
@@ -181,8 +195,12 @@ def evaluate(model, records: Iterable[GraspRecord]) -> dict[str, Any]:
             f"the data's shapes ({', '.join(sorted(set(y_true)))}) are none of the model's "
             f"classes ({', '.join(known)})"
         )
-    y_pred = predict(model, records)
+    y_pred, proba = model.predict_with_proba(records)
+    y_pred = np.asarray(y_pred).astype(str)
     doc = evaluation_report(y_true, y_pred, class_order(known, y_true), records)
+    from ..learn.doubt import evaluation_doubt
+
+    doc["ambiguous"] = evaluation_doubt(model, records, y_true, y_pred, proba)
     unknown = sorted(set(y_true) - set(known))
     if unknown:
         doc["unknown_classes"] = unknown
@@ -206,14 +224,17 @@ def describe_model(model) -> dict[str, Any]:
 
 
 def identify(model, record: GraspRecord) -> dict[str, Any]:
-    """Name the shape of one grasp: ``{"shape", "probabilities": {class: p}}``; a grasp
-    that touched too little gets no name: ``{"shape": None, "reason", "probabilities": {}}``
-    (:mod:`tactile_bullet.perception.contact`)."""
+    """Name the shape of one grasp: ``{"shape", "probabilities": {class: p}, "margin",
+    "ambiguous"}`` (``ambiguous`` ``[shape, runner-up]`` where the two best are within the
+    model's calibrated margin, else None: ``learn/doubt.py``); a grasp that touched too little
+    gets no name: ``{"shape": None, "reason", "probabilities": {}, "margin": None,
+    "ambiguous": None}`` (:mod:`tactile_bullet.perception.contact`)."""
     from ..perception.contact import nothing_to_identify
 
     reason = nothing_to_identify(record)
     if reason is not None:
-        return {"shape": None, "reason": reason, "probabilities": {}}
+        return {"shape": None, "reason": reason, "probabilities": {}, "margin": None,
+                "ambiguous": None, "cross_check": None}  # fmt: skip
     classes = [str(c) for c in model.classes]
     names, proba = model.predict_with_proba([record])
     shape = str(names[0])
@@ -221,7 +242,10 @@ def identify(model, record: GraspRecord) -> dict[str, Any]:
         probabilities = {c: float(c == shape) for c in classes}
     else:
         probabilities = {c: float(p) for c, p in zip(classes, proba[0], strict=True)}
-    return {"shape": shape, "probabilities": probabilities}
+    from ..learn.doubt import doubts
+
+    (doubt,) = doubts(model, [record], [shape], proba)
+    return {"shape": shape, "probabilities": probabilities, **doubt}
 
 
 # --- compare ------------------------------------------------------------------------------------
@@ -235,8 +259,12 @@ def compare(
     seed: int = 0,
     test_fraction: float = 0.3,
     on_pair: Callable[[dict[str, Any]], None] | None = None,
+    doubt: bool = True,
 ) -> list[dict[str, Any]]:
     """Accuracy and cost of every descriptor x classifier pair on the same train/test data.
+
+    ``doubt``: each row also gets ``ambiguous`` (``learn.doubt.pair_doubt``: the pair's threshold,
+    calibrated on held-out folds of the training set, and the shares of test answers flagged).
 
     Without ``test_records`` the training records are split (seeded, stratified by shape).
     ``fit_time_s`` is the classifier's fit on precomputed features; ``predict_latency_ms`` the
@@ -264,7 +292,9 @@ def compare(
     descs = [get_descriptor(d) for d in descriptors]
     _check_classifiers(classifiers)
     from ..console import tick
+    from ..learn.doubt import pair_doubt
 
+    seconds: dict[str, np.ndarray] = {}  # the shape fit's answers on the test set, read once
     rows = []
     for desc in descs:
         x_train, x_test = desc.transform(train_records), desc.transform(test_records)
@@ -287,6 +317,9 @@ def compare(
                 "train_records": len(train_records),
                 "test_records": len(test_records),
             }
+            if doubt:
+                trained, tested = (x_train, y_train, train_records), (x_test, y_test, test_records)
+                row["ambiguous"] = pair_doubt(name, estimator, trained, tested, seconds)
             rows.append(row)
             if on_pair is not None:
                 on_pair(row)
@@ -503,9 +536,10 @@ def demo(
     model.info.update({"made_by": "demo", "seed": int(seed), "train_records": len(train_records)})
     model_path = save_model(out / "model.npz", model)
     result = evaluate(model, test_records)
-    comparison = compare(
-        train_records, test_records, ("signature",), [c for c in classifiers], seed=seed
-    )
+    comparison = compare(  # without each pair's doubt: 3 more fits a pair, the demo stays quick
+        train_records, test_records, ("signature",), [c for c in classifiers], seed=seed,
+        doubt=False,
+    )  # fmt: skip
     write_evaluation_report(result, report)
     plot_signatures(train_records, report / "signatures.png")
     write_json(report / "comparison.json", comparison)

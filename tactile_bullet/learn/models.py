@@ -117,6 +117,14 @@ class Model:
             proba = None
         return names, proba
 
+    @property
+    def doubt_margin(self) -> float | None:
+        """The calibrated ambiguity threshold (``learn/doubt.py``); None in a model file
+        written before it existed, which then flags no answer."""
+        from .doubt import model_threshold
+
+        return model_threshold(self.info)
+
 
 def _qualname(kind: type) -> str:
     return f"{kind.__module__}.{kind.__qualname__}"
@@ -164,9 +172,26 @@ def save_model(path: str | Path, model: Model) -> Path:
     return path
 
 
+MODEL_MEMBER_LIMIT = 1 << 30
+"""The most bytes one array of a model file may decompress to (models are a few MB; an SVM on
+a million grasps holds ~200 MB of support vectors)."""
+
+
+def _is_model_member(name: str) -> bool:
+    return name in ("meta", "estimator_state", "estimator_skops") or name.startswith(
+        _STATE_PREFIX
+    )
+
+
 def _read(path: Path) -> tuple[dict, dict[str, np.ndarray]]:
-    if not path.is_file():
-        raise UsageError(f"model file {path} does not exist")
+    from ..files import check_npz_members, input_path
+
+    input_path(path, "model file")
+    try:
+        check_npz_members(path, str(path), _is_model_member, MODEL_MEMBER_LIMIT)
+    except UsageError as exc:
+        why = str(exc).removeprefix(f"{path} ")
+        raise UsageError(f"{path} is not a tactile-bullet model ({why})") from None
     try:
         with np.load(path, allow_pickle=False) as data:
             contents = {k: data[k] for k in data.files}

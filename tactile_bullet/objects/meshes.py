@@ -35,7 +35,6 @@ cache format belongs in one reviewable diff.
 
 from __future__ import annotations
 
-import contextlib
 import hashlib
 import json
 import math
@@ -72,10 +71,20 @@ vertices, the primitives' hull size)."""
 CONVEX_RATIO = 0.995
 """Volume / convex-hull volume above which a watertight object is treated as convex."""
 
+MAX_INPUT_TRIANGLES = 2_000_000
+"""The most triangles a mesh file may hold: reading and merging cost ~0.8 KB a triangle at
+peak (a 1.3M-triangle STL: 1.1 GB, 16 s), so this bounds a load to ~1.7 GB. A binary STL's
+count is read from its header and a PLY's or OFF's from theirs, before the file is parsed;
+other formats are counted once parsed. Decimate a larger scan first (e.g. in MeshLab)."""
+
+SIMPLIFY_PASSES = 4
+"""Quadric decimation passes at most: one pass stops short of a large reduction (5M -> 20k
+kept 133k triangles), a second from there reaches the budget."""
+
 PROFILE_SAMPLES = 241
 """Cross-sections along O-O': 0.5 mm apart on a 12 cm object, 2.5 mm on the longest allowed."""
 
-PROCESSING_VERSION = 2
+PROCESSING_VERSION = 3
 """Part of the cache key: bump when processing changes what it produces."""
 
 CACHE_ENV = "TACTILE_BULLET_CACHE"
@@ -174,6 +183,7 @@ def mesh_source(
     if not path.is_file():
         raise UsageError(f"mesh file {path} is not a file")
     name = check_name(path.stem if name is None else name)
+    _check_triangles(path.name, count_triangles(path, ext))
     return MeshSource(
         str(path.resolve()), file_sha256(path, ext), name, unit, scale, axis, int(budget)
     )
@@ -204,14 +214,14 @@ def check_name(name: str) -> str:
 
 def file_sha256(path: Path, ext: str | None = None) -> str:
     """sha256 of the file, and of the buffers a .gltf names beside it (its geometry lives
-    there: a changed .bin must not reuse a stale cache entry)."""
+    there: a changed .bin must not reuse a stale cache entry). Every file is checked as an
+    input (a regular file within the mesh limit) and a buffer must lie inside the mesh's own
+    folder, before anything is read: a glTF cannot make this read /dev/zero or /etc/passwd."""
+    from ..files import input_path
+
     ext = ext or _extension(path)
     h = hashlib.sha256()
-    try:
-        data = path.read_bytes()
-    except OSError as exc:
-        raise UsageError(f"cannot read mesh file {path}: {exc.strerror or exc}") from None
-    h.update(data)
+    data = _hash_file(input_path(path, "mesh file"), h, keep=ext == "gltf")
     if ext == "gltf":
         try:
             doc = json.loads(data)
@@ -219,10 +229,41 @@ def file_sha256(path: Path, ext: str | None = None) -> str:
         except (ValueError, AttributeError):
             uris = []  # not glTF JSON: the loader says so
         for uri in uris:
-            if uri and not uri.startswith("data:"):
-                with contextlib.suppress(OSError):
-                    h.update((path.parent / uri).read_bytes())
+            if isinstance(uri, str) and uri and not uri.startswith("data:"):
+                _hash_file(gltf_buffer(path, uri), h, keep=False)
     return h.hexdigest()
+
+
+def gltf_buffer(path: Path, uri: str) -> Path:
+    """The file a glTF buffer ``uri`` names, confined to the glTF's folder and checked as an
+    input; a UsageError for one outside it (absolute, ``..``, or through a link)."""
+    from urllib.parse import unquote
+
+    from ..files import input_path
+
+    folder = path.parent.resolve()
+    target = (folder / unquote(uri)).resolve()
+    if not target.is_relative_to(folder):
+        raise UsageError(
+            f"{path.name}: buffer {uri!r} lies outside the mesh's folder {folder}; "
+            "a glTF's buffers must sit beside it"
+        )
+    return input_path(target, "mesh file")
+
+
+def _hash_file(path: Path, h, keep: bool) -> bytes:
+    """Feed ``path`` to ``h`` in blocks (a large STL is never held twice); returns its bytes
+    where ``keep`` (a .gltf's JSON, whose buffers are hashed next), else b""."""
+    kept = []
+    try:
+        with open(path, "rb") as fh:
+            while block := fh.read(1 << 20):
+                h.update(block)
+                if keep:
+                    kept.append(block)
+    except OSError as exc:
+        raise UsageError(f"cannot read mesh file {path}: {exc.strerror or exc}") from None
+    return b"".join(kept)
 
 
 # --- the processed mesh --------------------------------------------------------------------
@@ -356,6 +397,7 @@ def _read_file(source: MeshSource):
     import trimesh
 
     path = Path(source.path)
+    _check_triangles(path.name, count_triangles(path, _extension(path)))
     try:
         loaded = trimesh.load(str(path), file_type=_extension(path), process=False)
     except Exception as exc:  # noqa: BLE001 - every parser raises its own kind
@@ -366,6 +408,7 @@ def _read_file(source: MeshSource):
         loaded = trimesh.util.concatenate(meshes) if meshes else None
     if not isinstance(loaded, trimesh.Trimesh) or len(loaded.faces) == 0:
         raise UsageError(f"{path.name} holds no triangles (empty, or a point cloud or path)")
+    _check_triangles(path.name, len(loaded.faces))
     vertices = np.asarray(loaded.vertices, float) * (UNITS[source.unit] * source.scale)
     faces = np.asarray(loaded.faces, np.int64)
     if not np.all(np.isfinite(vertices)):
@@ -395,15 +438,56 @@ def _merge(vertices: np.ndarray, faces: np.ndarray) -> tuple[np.ndarray, np.ndar
 
 
 def _simplify(vertices, faces, budget: int):
-    if len(faces) <= budget:
-        return vertices, faces
+    """Decimate to at most ``budget`` triangles (a pass stops short of large reductions, so
+    it is repeated from where it stopped; a surface that cannot be reduced is refused)."""
     import fast_simplification
 
-    v, f = fast_simplification.simplify(
-        np.ascontiguousarray(vertices, float), np.ascontiguousarray(faces, np.int32),
-        target_count=budget,
-    )  # fmt: skip
-    return np.asarray(v, float), np.asarray(f, np.int64)
+    for _ in range(SIMPLIFY_PASSES):
+        if len(faces) <= budget:
+            return vertices, faces
+        before = len(faces)
+        v, f = fast_simplification.simplify(
+            np.ascontiguousarray(vertices, float), np.ascontiguousarray(faces, np.int32),
+            target_count=budget,
+        )  # fmt: skip
+        vertices, faces = np.asarray(v, float), np.asarray(f, np.int64)
+        if len(faces) >= before:
+            break
+    if len(faces) > budget * 1.05:  # the library lands a few triangles either side
+        raise UsageError(
+            f"the mesh could not be simplified to {budget:,} triangles ({len(faces):,} remain): "
+            "it is likely many disconnected pieces; merge or decimate it first"
+        )
+    return vertices, faces
+
+
+def count_triangles(path: Path, ext: str) -> int | None:
+    """The triangle count a file's header declares (binary STL, PLY, OFF), read without
+    parsing the file; None where the format has no such header."""
+    try:
+        with open(path, "rb") as fh:
+            head = fh.read(4096)
+    except OSError:
+        return None
+    if ext == "stl" and not head.lstrip().lower().startswith(b"solid"):
+        size = path.stat().st_size
+        return max((size - 84) // 50, int.from_bytes(head[80:84], "little"))
+    if ext == "ply":
+        found = re.search(rb"element\s+face\s+(\d+)", head)
+        return int(found.group(1)) if found else None
+    if ext == "off":
+        lines = [ln for ln in head.splitlines() if ln.strip() and not ln.startswith(b"#")]
+        counts = lines[1].split() if len(lines) > 1 else []
+        return int(counts[1]) if len(counts) > 1 and counts[1].isdigit() else None
+    return None
+
+
+def _check_triangles(name: str, count: int | None) -> None:
+    if count is not None and count > MAX_INPUT_TRIANGLES:
+        raise UsageError(
+            f"{name} holds {count:,} triangles, over the {MAX_INPUT_TRIANGLES:,} this reads "
+            "(memory grows with them): decimate it first, e.g. in MeshLab or Blender"
+        )
 
 
 def _process(source: MeshSource) -> MeshShape:
@@ -655,6 +739,7 @@ def _write_cache(source: MeshSource, info: MeshInfo, arrays: Mapping[str, np.nda
 
     path = cache_path(source)
     meta = {"source": source.to_dict(), "info": asdict(info)}
+    meta["checksum"] = _cache_checksum(meta, arrays)
     try:
         path.parent.mkdir(parents=True, exist_ok=True)
         with atomic_path(path, "mesh cache") as tmp, open(tmp, "wb") as fh:
@@ -669,23 +754,55 @@ def _read_cache(source: MeshSource) -> MeshShape | None:
     path = cache_path(source)
     if not path.is_file():
         return None
-    try:
+    from ..files import check_npz_members
+
+    try:  # an entry holds a 20k-triangle mesh (~1 MB): anything far larger is not one
+        check_npz_members(path, str(path), lambda n: n == "meta" or n in CACHE_ARRAYS, 64 << 20)
         with np.load(path, allow_pickle=False) as data:
             meta = json.loads(str(data["meta"]))
             arrays = {k: np.asarray(data[k]) for k in data.files if k != "meta"}
-        if meta["source"]["sha256"] != source.sha256:
+        if meta["source"]["sha256"] != source.sha256 or sorted(arrays) != sorted(CACHE_ARRAYS):
+            return None
+        if meta.get("checksum") != _cache_checksum(meta, arrays):  # tampered or damaged
             return None
         info = meta["info"]
         info = MeshInfo(**{**info, "axis": tuple(info["axis"]), "size": tuple(info["size"])})
-        for prefix in ("", "collision_"):
-            faces = arrays[f"{prefix}faces"]
-            if faces.size and (faces.min() < 0 or faces.max() >= len(arrays[f"{prefix}vertices"])):
-                return None
-        if not all(np.all(np.isfinite(arrays[k])) for k in CACHE_ARRAYS):
+        if not _cache_arrays_sound(arrays, info):
             return None
         return _build_shape(source, info, arrays)
-    except (OSError, ValueError, KeyError, TypeError, IndexError):
+    except Exception:  # noqa: BLE001 - any failure of a cache entry means: process again
         return None
+
+
+def _cache_checksum(meta: Mapping[str, Any], arrays: Mapping[str, np.ndarray]) -> str:
+    """sha256 over the entry's metadata (less the checksum) and every array's dtype, shape
+    and bytes: an entry edited by hand or damaged on disk no longer matches."""
+    h = hashlib.sha256(json.dumps({k: v for k, v in meta.items() if k != "checksum"},
+                                  sort_keys=True).encode())  # fmt: skip
+    for key in CACHE_ARRAYS:
+        arr = np.ascontiguousarray(arrays[key])
+        h.update(f"{key}:{arr.dtype.str}:{arr.shape}".encode())
+        h.update(arr.tobytes())
+    return h.hexdigest()
+
+
+def _cache_arrays_sound(arrays: Mapping[str, np.ndarray], info: MeshInfo) -> bool:
+    """The shapes and ranges a processed mesh always has (an entry written by an older or
+    broken version may carry a valid checksum and still not be one)."""
+    for prefix in ("", "collision_"):
+        v, f = arrays[f"{prefix}vertices"], arrays[f"{prefix}faces"]
+        if v.ndim != 2 or v.shape[1] != 3 or len(v) < 4 or f.ndim != 2 or f.shape[1] != 3:
+            return False
+        if not info.convex and len(f) == 0:
+            return False
+        if f.size and (f.min() < 0 or f.max() >= len(v)):
+            return False
+    px, pr, reach = arrays["profile_x"], arrays["profile_r"], arrays["profile_reach"]
+    if px.ndim != 1 or len(px) < 2 or pr.shape != px.shape or reach.shape != px.shape:
+        return False
+    if np.any(np.diff(px) <= 0) or np.any(pr < 0):
+        return False
+    return all(np.all(np.isfinite(arrays[k])) for k in CACHE_ARRAYS)
 
 
 # --- records and reports -------------------------------------------------------------------

@@ -131,6 +131,9 @@ def hand_wrap_angles(radius, centre_y: float, centre_z=None, reach=None) -> np.n
     zc = np.broadcast_to(np.asarray(centre_z, dtype=float), r.shape)
     zk = np.array([KNUCKLE_Z[f] for f in LONG_FINGERS])
     big_r = r + PAD_RADIUS if reach is None else np.asarray(reach, dtype=float)
+    # a finger with nothing in its plane (r = 0, reach 0: past a hemisphere's flat face) is
+    # answered JOINT_LIMIT below; a unit stand-in keeps its arithmetic finite meanwhile
+    big_r = np.where(r > 0, np.broadcast_to(big_r, r.shape), 1.0)
     vy, vz = centre_y - 0.0, zc - zk  # knuckle to centre, in the finger plane
     dist = np.hypot(vy, vz)
     towards = np.arctan2(-vy, vz)  # flexion that would point the finger at the centre

@@ -9,9 +9,32 @@ from __future__ import annotations
 
 from .contact import nothing_to_identify
 from .patterns import identify, in_identification_range, size_matched_library
-from .rotation import alpha_of, estimate_rotation_deg, load_calibration
+from .rotation import RotationCalibration, alpha_of, estimate_rotation_deg, load_calibration
 from .signature import signature_of
 from .temporal import identify_corrected
+
+
+def rotation_from_grasp(
+    record, calibration: RotationCalibration | None = None
+) -> tuple[float | None, str | None]:
+    """(rotation in deg about the palm normal, the family whose line gave it) of one grasp whose
+    shape is not known: the signature's alpha read with the line of the calibrated family
+    (torus, hyperboloid, cylinder) the shape fit finds best among them; (None, None) without a
+    calibration or contact.
+
+    Why not the identified shape's line: a turned cylinder often reads as a cone, which has no
+    line (a cone's slope is its shape, not a rotation). The rotation only means something for
+    the calibrated families, so the family is chosen among them, from the absolute angles the
+    shape fit reads (scale separates cylinder from hyperboloid where the signature cannot).
+    ``tools/rotation_end_to_end.py`` measures it."""
+    from .shape_fit import fit_shape
+
+    cal = load_calibration() if calibration is None else calibration
+    if cal is None or not cal.per_shape or nothing_to_identify(record) is not None:
+        return None, None
+    fit = fit_shape(record.fci_angles(), families=sorted(cal.per_shape))
+    alpha = alpha_of(signature_of(record), cal.line)
+    return cal.estimate(alpha, fit.shape), fit.shape
 
 
 def signature_summary(record) -> dict:
@@ -27,6 +50,8 @@ def signature_summary(record) -> dict:
             "alpha_deg": None,
             "rotation_estimate_deg": None,
             "rotation_estimate_withheld": None,
+            "rotation_deg": None,
+            "rotation_family": None,
             "identified": None,
             "nearest_pattern": None,
             "distances": {},
@@ -45,6 +70,7 @@ def signature_summary(record) -> dict:
         "alpha_deg": alpha,
         "rotation_estimate_deg": estimate,
         "rotation_estimate_withheld": why_not,
+        **_end_to_end(record, cal),
         "identified": corrected.identification.name,
         "identified_uncorrected": ident.name,
         "nearest_pattern": ident.nearest,
@@ -52,6 +78,11 @@ def signature_summary(record) -> dict:
         "distances": ident.distances,
         "in_identification_range": in_range,
     }
+
+
+def _end_to_end(record, cal) -> dict:
+    deg, family = rotation_from_grasp(record, cal)
+    return {"rotation_deg": deg, "rotation_family": family}
 
 
 def calibrated_estimate(alpha_deg: float, cal, shape: str) -> tuple[float | None, str | None]:

@@ -13,6 +13,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import UsageError
+from ..files import input_path
 from ..hand import JOINT_NAMES
 from .calibration import Calibration
 from .joints import JointMap, JointSamples, _check_finite, _check_time
@@ -50,6 +51,32 @@ def _bag_root(path: Path) -> Path:
     return path
 
 
+_MAGIC = {".bag": b"#ROSBAG V2.0\n", ".db3": b"SQLite format 3\0", ".mcap": b"\x89MCAP0\r\n"}
+"""How each storage file begins: checked before the bag library reads anything (given a
+device or a sparse file it reads the whole file into memory before it looks)."""
+
+
+def _check_storage(root: Path) -> None:
+    """Every storage file of a bag is a regular file within the recording limit and starts as
+    its format does."""
+    files = [root] if root.is_file() else [
+        f for f in root.iterdir() if f.suffix.lower() in _MAGIC
+    ]  # fmt: skip
+    for file in files:
+        input_path(file, "recording")
+        magic = _MAGIC.get(file.suffix.lower())
+        if magic is None:
+            continue
+        try:
+            with open(file, "rb") as fh:
+                head = fh.read(len(magic))
+        except OSError as exc:
+            raise UsageError(f"cannot read recording {file}: {exc.strerror or exc}") from None
+        if head != magic:
+            raise UsageError(f"{file} is not a readable bag (it does not start as a "
+                             f"{file.suffix.lower()} file does)")  # fmt: skip
+
+
 def read_bag(
     path: str | Path,
     topic: str = DEFAULT_TOPIC,
@@ -64,10 +91,9 @@ def read_bag(
     from rosbags.highlevel import AnyReader
     from rosbags.typesys import Stores, get_typestore
 
-    path = Path(path)
-    if not path.exists():
-        raise UsageError(f"recording {path} does not exist")
+    path = input_path(path, "recording", folder=True)
     root = _bag_root(path)
+    _check_storage(root)
     where = str(path)
     try:
         with AnyReader([root], default_typestore=get_typestore(Stores.ROS2_HUMBLE)) as reader:

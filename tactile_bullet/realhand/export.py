@@ -29,7 +29,14 @@ from ..errors import UsageError
 from ..files import refuse_special
 from ..hand import JOINT_NAMES, LONG_FINGERS
 from ..records import GraspRecord
-from .names import DEFAULT_TOPIC, LABEL_COLUMN, MARKER_COLUMN, MARKER_TOPIC, TIME_COLUMN
+from .names import (
+    DEFAULT_TOPIC,
+    LABEL_COLUMN,
+    MARKER_COLUMN,
+    MARKER_TOPIC,
+    TIME_COLUMN,
+    check_topic,
+)
 
 FORMATS: tuple[str, ...] = ("bag", "db3", "mcap", "csv")
 PAUSE_S = 1.0
@@ -159,6 +166,8 @@ def export(
         raise UsageError(f"--prefix must be letters and digits like 'rh_', got {prefix!r}")
     if prefix and not prefix.endswith("_"):
         prefix += "_"
+    if fmt != "csv":
+        check_topic(topic)
     names = tuple(prefix + n for n in published_names(coupled))
     stamps = _timeline(records)
     parent = out.parent if str(out.parent) else Path(".")

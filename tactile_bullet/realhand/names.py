@@ -58,6 +58,21 @@ def canonical_joint(name: str) -> str | None:
     return None if parts is None else parts[1]
 
 
+_TOPIC = re.compile(r"(/[A-Za-z_][A-Za-z0-9_]*)+")
+
+
+def check_topic(topic: str, what: str = "--topic") -> str:
+    """A topic as a bag records it: a fully qualified ROS name (``/`` then tokens of letters,
+    digits and underscores, none starting with a digit, separated by single ``/``, no
+    trailing ``/``): what both ROS 1 and ROS 2 accept, so a bag written here plays back."""
+    if not isinstance(topic, str) or not _TOPIC.fullmatch(topic):
+        raise UsageError(
+            f"{what} {topic!r} is not a ROS topic name: '/' then names of letters, digits and "
+            "_ (not starting with a digit), separated by single '/', e.g. /joint_states"
+        )
+    return topic
+
+
 def hand_prefix(names: Sequence[str]) -> str:
     """The hand prefix ("rh") of the first Shadow joint among ``names``; "" for none."""
     for name in names:

@@ -51,6 +51,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import UsageError
+from ..files import input_path
 from ..records import ControllerSettings, GraspRecord, Pose
 from .bags import read_bag
 from .calibration import Calibration
@@ -173,9 +174,7 @@ def read_samples(
 ) -> JointSamples:
     """A recording of any supported kind, by its suffix (a folder is a ROS 2 bag); one hand's
     samples (``prefix`` "rh" picks one where the file holds two)."""
-    path = Path(path)
-    if not path.exists():
-        raise UsageError(f"recording {path} does not exist")
+    path = input_path(path, "recording", folder=True)
     suffix = path.suffix.lower()
     if suffix in (".csv", ".parquet", ".pq"):
         return read_table(path, marker, calibration, prefix=prefix)
@@ -223,8 +222,9 @@ def read_recordings(
 
 def identify_grasps(model, grasps: Sequence[RecordedGrasp]) -> list[dict]:
     """The model's answer for every grasp of a recording, features computed in one batch:
-    ``{"index", "file", "start_s", "end_s", "samples", "label", "shape", "probabilities"}``
-    (``label`` the file's or the user's, None when unknown)."""
+    ``{"index", "file", "start_s", "end_s", "samples", "label", "shape", "probabilities",
+    "margin", "ambiguous", "cross_check"}`` (``label`` the file's or the user's, None when unknown;
+    ``margin``/``ambiguous``/``cross_check`` as in ``workflow.identify``)."""
     records = [g.record for g in grasps]
     if not records:
         return []
@@ -235,8 +235,11 @@ def identify_grasps(model, grasps: Sequence[RecordedGrasp]) -> list[dict]:
         proba = np.asarray(model.estimator.predict_proba(features), dtype=float)
     except (AttributeError, NotImplementedError):
         proba = np.array([[float(c == s) for c in classes] for s in shapes])
+    from ..learn.doubt import doubts
+
+    found = doubts(model, records, shapes, proba)
     out = []
-    for g, shape, row in zip(grasps, shapes, proba, strict=True):
+    for g, shape, row, doubt in zip(grasps, shapes, proba, found, strict=True):
         out.append(
             {
                 "index": g.index,
@@ -247,6 +250,7 @@ def identify_grasps(model, grasps: Sequence[RecordedGrasp]) -> list[dict]:
                 "label": None if g.record.shape == UNKNOWN_SHAPE else g.record.shape,
                 "shape": str(shape),
                 "probabilities": {c: float(p) for c, p in zip(classes, row, strict=True)},
+                **doubt,
             }
         )
     return out

@@ -24,8 +24,12 @@ HOLD_TOL = 0.05
 """Samples within this closure (rad) of the peak still belong to the held grasp."""
 SETTLE_S = 0.15
 """Time (s) the closure must stay within ``STILL_TOL`` for a grasp to count as settled
-(streaming: ``grasp_over``)."""
+(streaming: ``grasp_over``); with sensor noise, the span of each of two successive windows
+of this length whose mean closures agree within ``STILL_TOL``."""
 STILL_TOL = 0.01
+"""Closure change (rad) that counts as motion. A real hand's 1 deg joint noise moves single
+samples of the closure by ~0.015 rad, so samples alone never stay within it; window means
+of 0.15 s (15 samples at 100 Hz) wander by ~0.004 rad and do."""
 
 # --- segmentation -----------------------------------------------------------------------------
 
@@ -56,6 +60,10 @@ class GraspSegmenter:
         self.c_ref = 0.0
         self.still_since = 0.0
         self.settled = False
+        self.level = 0.0
+        # the settled closure: a window mean, or the still samples' reference
+        self._window = (0.0, 0.0, 0)  # start time, sum, count of the running window
+        self._prev_mean: float | None = None
 
     def _open_at(self, i: int, c: float) -> None:
         self.closing = False
@@ -75,6 +83,7 @@ class GraspSegmenter:
                 self.closing, self.start = True, self.i_min
                 self.c_max, self.i_high = c, i
                 self.c_ref, self.still_since = c, t
+                self._window, self._prev_mean = (t, 0.0, 0), None
             return done
         if c >= self.c_max:
             self.c_max = c
@@ -84,10 +93,38 @@ class GraspSegmenter:
             done = (self.start, self.i_high)
             self._open_at(i, c)
             return done
+        self._settle(t, c)
+        return done
+
+    def _settle(self, t: float, c: float) -> None:
+        """Settled: the samples stayed within STILL_TOL for SETTLE_S (a clean sensor), or two
+        successive SETTLE_S windows' mean closures agree within it (a noisy one). Once
+        settled, it holds until a window's mean moves off the settled level by 2 STILL_TOL or
+        a sample by 2 HOLD_TOL: motion, not noise (3.6 and 6.6 standard deviations of the
+        closure's noise at 1 deg per joint, so a noisy hold is not undecided every few s)."""
         if abs(c - self.c_ref) > STILL_TOL:
             self.c_ref, self.still_since = c, t
-        self.settled = t - self.still_since >= SETTLE_S
-        return done
+        start, total, n = self._window
+        total, n = total + c, n + 1
+        mean = None
+        if t - start >= SETTLE_S:
+            mean, self._window = total / n, (t, 0.0, 0)
+        else:
+            self._window = (start, total, n)
+        if self.settled:
+            moved = abs(c - self.level) > 2 * HOLD_TOL or (
+                mean is not None and abs(mean - self.level) > 2 * STILL_TOL
+            )  # fmt: skip
+            if moved:
+                self.settled = False
+                self.c_ref, self.still_since = c, t
+        elif t - self.still_since >= SETTLE_S:
+            self.settled, self.level = True, self.c_ref
+        elif mean is not None and self._prev_mean is not None:
+            if abs(mean - self._prev_mean) <= STILL_TOL:
+                self.settled, self.level = True, mean
+        if mean is not None:
+            self._prev_mean = mean
 
     def finish(self) -> tuple[int, int] | None:
         """The grasp running at the end of the data (or before a gap), if any."""

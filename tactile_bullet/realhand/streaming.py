@@ -36,10 +36,16 @@ from .calibration import Calibration
 from .joints import JointMap, closure
 from .names import is_hand_message
 from .recordings import record_from_samples
-from .segment import GAP_S, STILL_TOL, GraspSegmenter
+from .segment import GAP_S, GraspSegmenter
 
 TRIM_AT = 4096
-"""Samples kept before a grasp starts are trimmed once the buffer holds this many."""
+"""Samples kept before a grasp starts are trimmed once the buffer holds this many; where the
+open hand's lowest closure is older than that, it is looked for again among the newest
+half (a grasp's start is the lowest closure before it), so an idle hand keeps at most this
+many samples (~40 s at 100 Hz)."""
+MAX_GRASP_SAMPLES = 60_000
+"""A grasp still unsettled after this many samples (10 min at 100 Hz: a hand that never
+holds still) is decided as it stands, so the buffer and ``result``'s cost stay bounded."""
 
 
 def checked_message(
@@ -81,9 +87,15 @@ def checked_message(
 class Identifier:
     """Streaming shape identification with a trained model (see the module docstring)."""
 
-    def __init__(self, model, calibration: Calibration | None = None, gap_s: float = GAP_S) -> None:
+    def __init__(
+        self, model, calibration: Calibration | None = None, gap_s: float = GAP_S,
+        cross_check: bool = True,
+    ) -> None:  # fmt: skip
         self.model = model
         self.calibration = calibration
+        self.cross_check = cross_check
+        """Whether the answer at a grasp's end asks the shape fit's second opinion where the
+        model's calibration wants it (``learn/doubt.py``; ~60 ms; False: the margin only)."""
         self._segmenter = GraspSegmenter(gap_s)
         self._maps: dict[tuple[str, ...], JointMap | None] = {}
         self._map: JointMap | None = None
@@ -98,9 +110,10 @@ class Identifier:
         model: str | os.PathLike | Any,
         calibration: str | os.PathLike | Calibration | None = None,
         gap_s: float = GAP_S,
+        cross_check: bool = True,
     ) -> Identifier:
         """An identifier for a saved model file (or a loaded Model); ``calibration`` a TOML
-        path or a :class:`Calibration`."""
+        path or a :class:`Calibration`; ``cross_check`` as in the constructor."""
         from ..learn.models import load_model
         from .calibration import load_calibration
 
@@ -108,7 +121,7 @@ class Identifier:
             model = load_model(model)
         if isinstance(calibration, str | os.PathLike):
             calibration = load_calibration(calibration)
-        return cls(model, calibration, gap_s)
+        return cls(model, calibration, gap_s, cross_check)
 
     def reset(self) -> None:
         """Forget every sample and grasp (a new session)."""
@@ -177,7 +190,7 @@ class Identifier:
             e = jmap.efforts(efforts)
         seg = self._segmenter
         c = float(closure(q))
-        if seg.closing and seg.settled and abs(c - seg.c_ref) <= STILL_TOL:
+        if seg.closing and seg.settled:
             # held: the last sample follows the hand instead of the buffer growing for as
             # long as the object is held (result() stays as fast as at the grasp's end)
             index = self._offset + len(self._t) - 1
@@ -192,8 +205,17 @@ class Identifier:
         done = seg.push(index, t, c)
         if done is not None:
             self._keep(done)
+        if seg.closing and index - seg.start >= MAX_GRASP_SAMPLES:
+            self.finish()
+            seg._open_at(index, c)
         if not seg.closing and len(self._t) > TRIM_AT:
             self._trim(seg.i_min)
+            if len(self._t) > TRIM_AT:  # the lowest closure is old: look again, newest half
+                half = TRIM_AT // 2
+                levels = closure(np.array(self._q[-half:]))
+                k = int(np.argmin(levels))
+                seg.c_min, seg.i_min = float(levels[k]), self._offset + len(self._t) - half + k
+                self._trim(seg.i_min)
 
     def finish(self) -> None:
         """The caller knows the grasp is over (end of a replay, a marker): close it now."""
@@ -241,21 +263,31 @@ class Identifier:
 
     def result(self) -> dict[str, Any]:
         """``shape`` (None until the grasp is over), ``probabilities`` (of the grasp so far),
-        ``rotation_deg`` (calibrated object rotation, None where unknown), ``grasp_over``,
+        ``margin``, ``ambiguous`` and ``cross_check`` (as in ``workflow.identify``; None until
+        the grasp is over: the shape fit's cross-check adds ~60 ms then), ``rotation_deg``
+        (calibrated object rotation, None where unknown), ``grasp_over``,
         and ``samples`` (messages in the grasp)."""
         if self._cache is not None:
             return self._cache
         seg = self._segmenter
         record = self.current_record()
         if record is None:
-            doc = {"shape": None, "probabilities": {}, "rotation_deg": None,
-                   "grasp_over": False, "samples": 0}  # fmt: skip
+            doc = {"shape": None, "probabilities": {}, "margin": None, "ambiguous": None,
+                   "cross_check": None, "rotation_deg": None, "grasp_over": False,
+                   "samples": 0}  # fmt: skip
         else:
             over = not seg.closing or seg.settled
             answer, probabilities = self._predict(record, decide=over)
+            doubt = {"margin": None, "ambiguous": None, "cross_check": None}
+            if over and answer is not None:
+                from ..learn.doubt import doubts
+
+                proba = np.array([[probabilities[c] for c in self._classes]])
+                (doubt,) = doubts(self.model, [record], [answer], proba, self.cross_check)
             doc = {
                 "shape": answer if over else None,
                 "probabilities": probabilities,
+                **doubt,
                 "rotation_deg": _rotation(record, answer) if over else None,
                 "grasp_over": over,
                 "samples": int(record.time.size),

@@ -12,7 +12,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import UsageError
-from ..files import not_a_file
+from ..files import INPUT_LIMITS, input_path
 from ..hand import JOINT_NAMES
 from .calibration import Calibration
 from .joints import JointMap, JointSamples, _check_finite, _check_time
@@ -25,8 +25,15 @@ MAX_TIME_S = 1e11
 # --- tables -------------------------------------------------------------------------------------
 
 
-def _table_columns(path: Path) -> dict[str, list]:
-    """Column name -> values (text for CSV, Python values for Parquet)."""
+CSV_BLOCK_ROWS = 4_096
+"""Rows parsed at a time: each block's cells become float arrays before the next is read, so
+a large CSV never exists in memory as Python strings (a 1M-row file peaked at 14x its size)."""
+
+
+def _table_columns(path: Path, text: tuple = ()) -> dict[str, list | np.ndarray]:
+    """Column name -> values: a float array for a numeric CSV column, else its cells (text for
+    CSV, Python values for Parquet). ``text`` names CSV columns always kept as text (labels,
+    markers)."""
     if path.suffix.lower() in (".parquet", ".pq"):
         try:
             import pyarrow.parquet as pq
@@ -50,23 +57,61 @@ def _table_columns(path: Path) -> dict[str, list]:
 
     try:
         with open(path, newline="") as fh:
-            rows = list(csv.reader(fh))
+            return _csv_columns(path, csv.reader(fh), text)
     except (OSError, UnicodeDecodeError, csv.Error) as exc:
         raise UsageError(f"cannot read {path}: {exc}") from None
-    rows = [r for r in rows if r and not (len(r) == 1 and not r[0].strip())]
-    if not rows:
+
+
+def _csv_columns(path: Path, reader, text: tuple) -> dict[str, list | np.ndarray]:
+    """The columns of a CSV, parsed block by block (:data:`CSV_BLOCK_ROWS`)."""
+    import itertools
+
+    header: list[str] | None = None
+    line = 0
+    for row in reader:
+        line += 1
+        if row and not (len(row) == 1 and not row[0].strip()):
+            header = [h.strip() for h in row]
+            break
+    if header is None:
         raise UsageError(f"{path} is empty")
-    header = [h.strip() for h in rows[0]]
     if header and header[0].startswith("\ufeff"):  # a byte-order mark (Excel's UTF-8 CSV)
         header[0] = header[0][1:].strip()
     _refuse_duplicates(header, path)
-    body = rows[1:]
-    for k, row in enumerate(body):
-        if len(row) != len(header):
-            raise UsageError(
-                f"{path}: line {k + 2} has {len(row)} fields, the header {len(header)}"
-            )
-    return {h: [r[j] for r in body] for j, h in enumerate(header)}
+    blocks: list[list] = [[] for _ in header]
+    read = True
+    while read:
+        rows, read = [], False
+        for row in itertools.islice(reader, CSV_BLOCK_ROWS):
+            line, read = line + 1, True
+            if not row or (len(row) == 1 and not row[0].strip()):
+                continue
+            if len(row) != len(header):
+                raise UsageError(f"{path}: line {line} has {len(row)} fields, the header "
+                                 f"{len(header)}")  # fmt: skip
+            rows.append(row)
+        for j, cells in enumerate(zip(*rows, strict=True)):
+            blocks[j].append(_block_values(cells, header[j] in text))
+        del rows
+    columns: dict[str, list | np.ndarray] = {}
+    for name, parts in zip(header, blocks, strict=True):
+        if all(isinstance(p, np.ndarray) for p in parts):
+            columns[name] = np.concatenate(parts) if parts else np.zeros(0)
+        else:  # text, or a cell that is not a plain number: the checks below name it
+            columns[name] = [v for p in parts for v in (p.tolist() if isinstance(p, np.ndarray)
+                                                        else p)]  # fmt: skip
+        parts.clear()
+    return columns
+
+
+def _block_values(cells: tuple, keep_text: bool) -> list | np.ndarray:
+    """A block of one column's cells as floats where every cell is a plain number."""
+    if not keep_text and "_" not in "".join(cells):  # "1_0" is not a number here
+        try:
+            return np.array(cells, dtype=float)
+        except ValueError:
+            pass
+    return list(cells)
 
 
 def _refuse_duplicates(names: list[str], path: Path) -> None:
@@ -84,7 +129,9 @@ def pa_types_bool(kind) -> bool:
     return bool(pa.types.is_boolean(kind))
 
 
-def _floats(values: list, where: str, what: str) -> np.ndarray:
+def _floats(values: list | np.ndarray, where: str, what: str) -> np.ndarray:
+    if isinstance(values, np.ndarray):
+        return values
     bad = next((v for v in values if isinstance(v, str) and "_" in v), None)
     if bad is not None:  # Python's float() reads "1_0" as 10
         raise UsageError(f"{where}: {what} holds {bad!r}, not a number")
@@ -114,10 +161,8 @@ def read_table(
     ``prefix`` ("rh") keeps one hand's columns of a table that holds two."""
     path = Path(path)
     where = str(path)
-    problem = not_a_file(path)
-    if problem:
-        raise UsageError(f"recording {path} {problem}")
-    columns = _table_columns(path)
+    input_path(path, "recording", INPUT_LIMITS["table"])
+    columns = _table_columns(path, (LABEL_COLUMN, MARKER_COLUMN, marker))
     if time_column not in columns:
         raise UsageError(f"{where} has no {time_column!r} column")
     marker_column = marker if marker is not None else (
@@ -154,7 +199,7 @@ def read_table(
             "for seconds: nanoseconds? (divide by 1e9; time is in seconds)"
         )
     _check_time(time, where)
-    raw = np.column_stack([_floats(columns[j], where, f"column {j!r}") for j in joints])
+    raw = _stack(columns, joints, where)
     missing = ~np.isfinite(raw)
     if missing.any():
         row, col = (int(v[0]) for v in np.nonzero(missing))
@@ -164,11 +209,10 @@ def read_table(
         absent = [j for j in joints if j not in effort_cols]
         raise UsageError(f"{where}: effort columns missing for {', '.join(absent)}")
     if has_eff:
-        raw_eff = np.column_stack(
-            [_floats(columns[effort_cols[j]], where, f"column {effort_cols[j]!r}") for j in joints]
-        )
+        raw_eff = _stack(columns, [effort_cols[j] for j in joints], where)
         _check_finite(raw_eff, where, "efforts")
         efforts = jmap.efforts(raw_eff)
+        del raw_eff
     else:
         efforts = np.zeros((len(time), len(JOINT_NAMES)))
     groups = None
@@ -187,6 +231,19 @@ def read_table(
         coupled=jmap.coupled,
         prefix=jmap.prefix,
     )
+
+
+def _stack(columns: dict, names: list[str], where: str) -> np.ndarray:
+    """The named columns as one (rows, len(names)) float array, each column dropped from
+    ``columns`` once copied: a large table is never held twice."""
+    out = None
+    for k, name in enumerate(names):
+        values = _floats(columns[name], where, f"column {name!r}")
+        if out is None:
+            out = np.empty((len(values), len(names)))
+        out[:, k] = values
+        columns[name] = []
+    return out if out is not None else np.zeros((0, 0))
 
 
 def _group_key(value):

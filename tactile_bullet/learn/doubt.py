@@ -1,0 +1,313 @@
+"""Answers that admit doubt: the margin between the two best shapes, and when it is too small.
+
+A classifier's top probability says little on its own: on grasps from another simulator wrong
+answers came at probability 0.9-1.0. What is compared here is the *margin*, the decided
+shape's probability minus the best other shape's. Where the margin is below the model's
+calibrated threshold the answer is *ambiguous*: the best guess is still given, with the runner-up
+named beside it.
+
+The threshold is calibrated per model on held-out training data (:func:`calibrate_margin`):
+every training grasp is predicted by a copy of the classifier fitted on the other folds, and the
+threshold is set so that at most ``FALSE_ALARM`` of those held-out *right* answers fall below it
+(the largest threshold that keeps that promise, so as many wrong answers as possible are
+flagged). It is stored in the model file's ``info["doubt"]``; a model written before it existed
+loads without one and then flags nothing (its answers still carry their margin).
+
+The margin alone misses the errors that matter most: an SVM on signatures, or any model on
+grasps from a shifted simulator, is wrong *with* a large margin (tools/doubt_report.py: 0 of 21
+wrong answers flagged). So a model whose classes the training-free shape fit can model is also
+*cross-checked*: the shape fit (``perception/shape_fit.py``, which learns nothing from the
+training data and reads the absolute joint angles) names the grasp too, and an answer it
+contradicts is ambiguous between the two names. The margin threshold then gets what the
+cross-check leaves of the ``FALSE_ALARM`` budget on the held-out right answers (nothing, where the
+shape fit alone contradicts more of them: ``info["doubt"]["right_flagged"]`` then says by how
+much the promise is missed on the training grasps).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Sequence
+from typing import Any
+
+import numpy as np
+
+FALSE_ALARM = 0.05
+"""Share of held-out right answers the calibrated threshold may flag."""
+FOLDS = 3
+"""Held-out folds of the calibration (each grasp is predicted once, by a fit without it)."""
+CROSS_CHECK = "shape-fit"
+"""The independent second opinion (the training-free shape fit)."""
+CROSS_CHECK_SAMPLES = 100
+"""Training grasps the cross-check reads while calibrating (a shape fit takes ~60 ms)."""
+
+
+def cross_check_applies(classes: Sequence[str], classifier: str) -> bool:
+    """Whether the shape fit can second a model: every class one of its families, and the
+    model not the shape fit itself."""
+    from ..perception.shape_fit import fitted_shapes
+
+    known = set(fitted_shapes())
+    return classifier != CROSS_CHECK and all(str(c) in known for c in classes)
+
+
+def cross_check_names(records: Sequence, classes: Sequence[str]) -> np.ndarray:
+    """The shape fit's answer among ``classes`` for each record ('' where it cannot read one)."""
+    from ..errors import UsageError
+    from ..perception.shape_fit import fit_shape
+
+    families = [str(c) for c in classes]
+    out = []
+    for rec in records:
+        try:
+            out.append(fit_shape(rec.fci_angles(), families).shape)
+        except UsageError:
+            out.append("")
+    return np.array(out, dtype=object).astype(str)
+
+
+def margins(proba: np.ndarray, decided: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(margin, runner-up column) per row of ``proba`` (n, n_classes) given the column of the
+    decided shape: p[decided] - max of the others. Negative where the estimator's decision is
+    not its probabilities' argmax (an SVM with Platt scaling can do that): surely doubtful."""
+    proba = np.asarray(proba, dtype=float)
+    decided = np.asarray(decided, dtype=int)
+    if proba.shape[1] < 2:
+        return np.ones(len(proba)), decided.copy()
+    rows = np.arange(len(proba))
+    others = proba.copy()
+    others[rows, decided] = -np.inf
+    second = np.argmax(others, axis=1)
+    return proba[rows, decided] - proba[rows, second], second
+
+
+def threshold_for(right_margins: Sequence[float], false_alarm: float = FALSE_ALARM) -> float:
+    """The largest threshold t with at most ``false_alarm`` of ``right_margins`` below t
+    (an answer is flagged when its margin < t); 0 (nothing flagged) without right answers."""
+    values = np.sort(np.asarray(right_margins, dtype=float))
+    if values.size == 0:
+        return 0.0
+    k = int(np.floor(false_alarm * values.size))
+    return float(values[min(k, values.size - 1)])
+
+
+def flagged(margin: np.ndarray | float, threshold: float | None) -> np.ndarray:
+    """Which answers are ambiguous (margin below the threshold); none without a threshold."""
+    m = np.asarray(margin, dtype=float)
+    if threshold is None:
+        return np.zeros(m.shape, dtype=bool)
+    return m < float(threshold)
+
+
+def flag_shares(is_flagged: np.ndarray, correct: np.ndarray) -> dict[str, float | None]:
+    """Share of all answers, of right answers and of wrong answers flagged (None: no such
+    answers): the figures a report gives for its doubt."""
+    is_flagged = np.asarray(is_flagged, dtype=bool)
+    correct = np.asarray(correct, dtype=bool)
+
+    def share(mask: np.ndarray) -> float | None:
+        return float(is_flagged[mask].mean()) if mask.any() else None
+
+    return {
+        "flagged": share(np.ones_like(correct)),
+        "right_flagged": share(correct),
+        "wrong_flagged": share(~correct),
+    }
+
+
+def held_out_margins(
+    make: Callable[[], Any], x: np.ndarray, y: np.ndarray, folds: int = FOLDS, seed: int = 0
+) -> tuple[np.ndarray, np.ndarray] | str:
+    """(margins, correct) of every row predicted by a fresh estimator (``make()``) fitted on the
+    other folds, or the reason none can be had (too few grasps of a shape)."""
+    from sklearn.model_selection import StratifiedKFold
+
+    y = np.asarray(y).astype(str)
+    _, counts = np.unique(y, return_counts=True)
+    k = min(int(folds), int(counts.min()))
+    if k < 2:
+        return f"a shape has {int(counts.min())} grasp(s): none can be held out"
+    out_margin = np.empty(len(y))
+    out_right = np.empty(len(y), dtype=bool)
+    splitter = StratifiedKFold(n_splits=k, shuffle=True, random_state=seed)
+    for train_idx, test_idx in splitter.split(x, y):
+        if len(np.unique(y[train_idx])) < 2:
+            return "a fold holds a single shape"
+        try:
+            est = make().fit(x[train_idx], y[train_idx])
+            names = np.asarray(est.predict(x[test_idx])).astype(str)
+            proba = np.asarray(est.predict_proba(x[test_idx]), dtype=float)
+        except (ValueError, AttributeError, NotImplementedError) as exc:
+            first = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
+            return f"a held-out fold could not be fitted ({first})"
+        classes = [str(c) for c in est.classes_]
+        decided = np.array([classes.index(n) for n in names])
+        out_margin[test_idx] = margins(proba, decided)[0]
+        out_right[test_idx] = names == y[test_idx]
+    return out_margin, out_right
+
+
+def calibrate_margin(
+    make: Callable[[], Any],
+    x: np.ndarray,
+    y: np.ndarray,
+    folds: int = FOLDS,
+    false_alarm: float = FALSE_ALARM,
+    seed: int = 0,
+    records: Sequence | None = None,
+    classifier: str = "",
+) -> dict[str, Any]:
+    """The model file's ``info["doubt"]``: ``margin`` (the threshold, None when it could not
+    be calibrated, with ``reason``), ``cross_check`` (``"shape-fit"`` or None: given the
+    training ``records`` and a model the shape fit can second), the held-out figures it was
+    set on, and how."""
+    found = held_out_margins(make, x, y, folds, seed)
+    doc: dict[str, Any] = {"false_alarm": float(false_alarm), "folds": int(folds),
+                           "cross_check": None}  # fmt: skip
+    if isinstance(found, str):
+        return {**doc, "margin": None, "reason": found}
+    m, right = found
+    y = np.asarray(y).astype(str)
+    keep = np.arange(len(y))
+    seconded = np.zeros(len(y), dtype=bool)
+    if records is not None and cross_check_applies(sorted(set(y)), classifier):
+        if len(keep) > CROSS_CHECK_SAMPLES:
+            keep = np.sort(np.random.default_rng(seed).choice(len(y), CROSS_CHECK_SAMPLES, False))
+        other = cross_check_names([records[i] for i in keep], sorted(set(y)))
+        # a right held-out answer is the true label: the cross-check contradicts it where it
+        # names another shape (or none)
+        seconded[keep] = (other != y[keep]) & right[keep]
+        doc["cross_check"] = CROSS_CHECK
+    m, right, seconded = m[keep], right[keep], seconded[keep]
+    allowed = int(np.floor(false_alarm * right.sum()))
+    contradicted = int(seconded.sum())
+    if doc["cross_check"] is not None:
+        doc["cross_check_contradicts"] = contradicted / max(1, int(right.sum()))
+    # the margin alone gets what the cross-check leaves of the budget (none where the shape
+    # fit alone contradicts more held-out right answers than the budget: it is kept anyway,
+    # since it is what catches confident wrong answers; docs/doubt.md gives both figures)
+    budget = allowed - contradicted
+    pool = np.sort(m[right & ~seconded])
+    threshold = -1.0 if budget < 0 or pool.size == 0 else float(pool[min(budget, pool.size - 1)])
+    shares = flag_shares(flagged(m, threshold) | seconded, right)
+    return {
+        **doc,
+        "margin": threshold,
+        "held_out": int(len(m)),
+        "held_out_wrong": int((~right).sum()),
+        "right_flagged": shares["right_flagged"],
+        "wrong_flagged": shares["wrong_flagged"] if doc["cross_check"] is None else None,
+    }
+
+
+def model_threshold(info: dict) -> float | None:
+    """The calibrated threshold in a model's ``info``, None where there is none (an older
+    model file, or one whose data held too few grasps to hold any out)."""
+    doubt = info.get("doubt") if isinstance(info, dict) else None
+    if not isinstance(doubt, dict):
+        return None
+    value = doubt.get("margin")
+    if isinstance(value, bool) or not isinstance(value, int | float) or not np.isfinite(value):
+        return None
+    return float(value)
+
+
+def answer_doubt(
+    classes: Sequence[str],
+    shape: str,
+    proba: np.ndarray | None,
+    threshold: float | None,
+    second_opinion: str | None = None,
+) -> dict[str, Any]:
+    """``{"margin", "ambiguous", "cross_check"}`` of one answer: ``ambiguous`` is ``[shape,
+    runner-up]`` when the margin is below the threshold, else ``[shape, second_opinion]`` when
+    the cross-check names another shape, else None; without probabilities the margin is None.
+    ``cross_check`` is the second opinion (None where none was asked)."""
+    opinion = second_opinion or None
+    out: dict[str, Any] = {"margin": None, "ambiguous": None, "cross_check": opinion}
+    classes = [str(c) for c in classes]
+    if proba is not None and len(classes) >= 2:
+        decided = classes.index(shape)
+        m, second = margins(np.asarray(proba, dtype=float)[None, :], np.array([decided]))
+        out["margin"] = float(m[0])
+        if bool(flagged(out["margin"], threshold)):
+            out["ambiguous"] = [shape, classes[int(second[0])]]
+    if out["ambiguous"] is None and opinion is not None and opinion != shape:
+        out["ambiguous"] = [shape, opinion]
+    return out
+
+
+def cross_flags(names, seconds) -> np.ndarray:
+    """Which answers the cross-check flags (batched :func:`answer_doubt`'s second rule)."""
+    names = np.asarray(names).astype(str)
+    seconds = np.asarray(seconds).astype(str)
+    return (seconds != "") & (seconds != names)
+
+
+def model_cross_check(info: dict) -> bool:
+    """Whether a model's calibration asked for the shape fit's second opinion."""
+    doubt = info.get("doubt") if isinstance(info, dict) else None
+    return isinstance(doubt, dict) and doubt.get("cross_check") == CROSS_CHECK
+
+
+def doubts(
+    model, records: Sequence, names: Sequence[str], proba: np.ndarray | None,
+    cross_check: bool = True,
+) -> list:  # fmt: skip
+    """:func:`answer_doubt` of each of a model's answers, with the cross-check the model's
+    calibration asked for (unless ``cross_check`` is False: the margin only, ~60 ms sooner)."""
+    classes = [str(c) for c in model.classes]
+    threshold = model.doubt_margin
+    others: Sequence[str | None] = [None] * len(names)
+    if cross_check and model_cross_check(model.info) and len(records):
+        others = list(cross_check_names(records, classes))
+    return [
+        answer_doubt(classes, str(n), None if proba is None else proba[i], threshold, others[i])
+        for i, n in enumerate(names)
+    ]
+
+
+def evaluation_doubt(model, records: Sequence, y_true, y_pred, proba) -> dict[str, Any]:
+    """``evaluate``'s ``ambiguous`` block: ``{"margin", "cross_check", "flagged",
+    "right_flagged", "wrong_flagged"}``, the model's threshold, its second opinion, and the
+    share of all, right and wrong answers flagged (docs/json.md)."""
+    found = doubts(model, records, y_pred, proba)
+    flags = np.array([d["ambiguous"] is not None for d in found], dtype=bool)
+    correct = np.asarray(y_pred).astype(str) == np.asarray(y_true).astype(str)
+    cross = CROSS_CHECK if model_cross_check(model.info) else None
+    return {"margin": model.doubt_margin, "cross_check": cross, **flag_shares(flags, correct)}
+
+
+def pair_doubt(
+    classifier: str, estimator, train: tuple, test: tuple, cache: dict | None = None
+) -> dict[str, Any]:
+    """A fitted pair's doubt on a test set (``compare``): its threshold (calibrated on held-out
+    folds of the training set, ``train`` and ``test`` each ``(features, labels, records)``),
+    the cross-check's answers on the test records where it applies (kept in ``cache`` for the
+    next pair), and the share of all, right and wrong test answers flagged; ``reason`` instead
+    of a threshold where it could not be calibrated."""
+    from ..plugins import get_classifier
+
+    x_train, y_train, records = train
+    x_test, y_test, test_records = test
+    classes = sorted({str(c) for c in y_train})
+    seconds = None
+    if cross_check_applies(classes, classifier):
+        cache = {} if cache is None else cache
+        if "seconds" not in cache:
+            cache["seconds"] = cross_check_names(test_records, classes)
+        seconds = cache["seconds"]
+    calibration = calibrate_margin(
+        lambda: get_classifier(classifier), x_train, y_train,
+        records=records if seconds is not None else None, classifier=classifier,
+    )  # fmt: skip
+    names = np.asarray(estimator.predict(x_test)).astype(str)
+    classes = [str(c) for c in estimator.classes_]
+    proba = np.asarray(estimator.predict_proba(x_test), dtype=float)
+    m = margins(proba, np.array([classes.index(n) for n in names]))[0]
+    flags = flagged(m, calibration["margin"])
+    if calibration["cross_check"] is not None and seconds is not None:
+        flags = flags | cross_flags(names, seconds)
+    doc = {"margin": calibration["margin"], "cross_check": calibration["cross_check"]}
+    if calibration["margin"] is None:
+        doc["reason"] = calibration.get("reason")
+    return {**doc, **flag_shares(flags, names == np.asarray(y_test).astype(str))}

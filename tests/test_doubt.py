@@ -1,0 +1,138 @@
+"""Answers that admit doubt (learn/doubt.py): margins, the calibrated threshold, and the
+``ambiguous`` field of identify, evaluate, compare and saved models."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from tactile_bullet.experiments import workflow
+from tactile_bullet.learn import doubt
+from tactile_bullet.learn.models import load_model, save_model
+
+
+def test_margin_is_decided_minus_runner_up_and_negative_when_decision_is_not_argmax():
+    proba = np.array([[0.6, 0.3, 0.1], [0.2, 0.5, 0.3]])
+    m, second = doubt.margins(proba, np.array([0, 0]))
+    assert m == pytest.approx([0.3, -0.3])
+    assert list(second) == [1, 1]
+
+
+def test_threshold_flags_at_most_the_false_alarm_share_of_right_answers():
+    rng = np.random.default_rng(0)
+    right = rng.uniform(0, 1, 200)
+    t = doubt.threshold_for(right, 0.05)
+    assert np.mean(right < t) <= 0.05
+    # the largest such threshold: one step up flags more than the share
+    above = np.sort(right)[np.searchsorted(np.sort(right), t) + 1]
+    assert np.mean(right < above) > 0.05
+    assert doubt.threshold_for([], 0.05) == 0.0
+
+
+def test_training_stores_a_calibrated_threshold_that_survives_a_save(synthetic_split, tmp_path):
+    train, _ = synthetic_split
+    model = workflow.train(train, "signature", "knn")
+    cal = model.info["doubt"]
+    assert cal["held_out"] == len(train)
+    # both rules together miss the 5% only by what the second opinion contradicts alone
+    assert cal["right_flagged"] <= max(doubt.FALSE_ALARM, cal["cross_check_contradicts"])
+    assert model.doubt_margin == cal["margin"]
+    loaded = load_model(save_model(tmp_path / "m.npz", model))
+    assert loaded.doubt_margin == pytest.approx(cal["margin"])
+
+
+def test_too_few_grasps_to_hold_out_gives_no_threshold_and_says_why(synthetic_split):
+    train, _ = synthetic_split
+    one_each = list({r.shape: r for r in train}.values())
+    cal = doubt.calibrate_margin(
+        lambda: __import__("sklearn.neighbors").neighbors.KNeighborsClassifier(1),
+        np.arange(len(one_each), dtype=float)[:, None],
+        np.array([r.shape for r in one_each]),
+    )
+    assert cal["margin"] is None and "held out" in cal["reason"]
+
+
+def test_identify_names_both_shapes_only_below_the_margin(synthetic_split):
+    train, test = synthetic_split
+    model = workflow.train(train, "signature", "svm", doubt=False)
+    record = test[0]
+    model.info["doubt"] = {"margin": 2.0}  # every answer is below: ambiguous
+    doc = workflow.identify(model, record)
+    ranked = sorted(doc["probabilities"], key=doc["probabilities"].get, reverse=True)
+    assert doc["ambiguous"][0] == doc["shape"]
+    assert doc["ambiguous"][1] in ranked[:2] and doc["ambiguous"][1] != doc["shape"]
+    assert doc["margin"] <= 1.0
+    model.info["doubt"] = {"margin": -2.0}  # none is
+    assert workflow.identify(model, record)["ambiguous"] is None
+
+
+def test_a_model_file_without_a_threshold_loads_and_flags_nothing(synthetic_split, tmp_path):
+    train, test = synthetic_split
+    model = workflow.train(train, "signature", "knn", doubt=False)  # as files before issue 21
+    loaded = load_model(save_model(tmp_path / "old.npz", model))
+    assert loaded.doubt_margin is None
+    doc = workflow.evaluate(loaded, test)
+    assert doc["ambiguous"]["margin"] is None and doc["ambiguous"]["flagged"] == 0.0
+    assert isinstance(workflow.identify(loaded, test[0])["margin"], float)
+
+
+def test_evaluate_counts_flagged_right_and_wrong_answers(synthetic_split):
+    train, test = synthetic_split
+    model = workflow.train(train, "signature", "knn")
+    doc = workflow.evaluate(model, test)
+    amb = doc["ambiguous"]
+    answers = [workflow.identify(model, r) for r in test]
+    flags = np.array([a["ambiguous"] is not None for a in answers])
+    right = np.array([a["shape"] == r.shape for a, r in zip(answers, test, strict=True)])
+    assert amb["flagged"] == pytest.approx(flags.mean())
+    if right.any():
+        assert amb["right_flagged"] == pytest.approx(flags[right].mean())
+    if (~right).any():
+        assert amb["wrong_flagged"] == pytest.approx(flags[~right].mean())
+
+
+def test_compare_rows_carry_the_share_of_answers_flagged(synthetic_split):
+    train, test = synthetic_split
+    (row,) = workflow.compare(train, test, ("signature",), ("knn",))
+    assert row["ambiguous"]["margin"] is not None
+    assert 0.0 <= row["ambiguous"]["flagged"] <= 1.0
+
+
+def test_a_contradicting_second_opinion_makes_the_answer_ambiguous():
+    classes = ["cone", "cylinder", "sphere"]
+    proba = np.array([0.9, 0.05, 0.05])  # a large margin: the margin alone raises no doubt
+    assert doubt.answer_doubt(classes, "cone", proba, 0.3, "cone")["ambiguous"] is None
+    found = doubt.answer_doubt(classes, "cone", proba, 0.3, "cylinder")
+    assert found["ambiguous"] == ["cone", "cylinder"] and found["cross_check"] == "cylinder"
+    # below the margin the runner-up is named, whatever the second opinion
+    low = doubt.answer_doubt(classes, "cone", np.array([0.5, 0.1, 0.4]), 0.3, "cylinder")
+    assert low["ambiguous"] == ["cone", "sphere"]
+
+
+def test_the_second_opinion_takes_its_share_of_the_false_alarm_budget_first(
+    synthetic_split, monkeypatch
+):
+    train, _ = synthetic_split
+    truth = np.array([r.shape for r in train])
+    monkeypatch.setattr(doubt, "cross_check_names", lambda recs, classes: truth[: len(recs)])
+    svm = workflow.train(train, "signature", "svm")
+    assert svm.info["doubt"]["cross_check"] == "shape-fit"
+    names, proba = svm.predict_with_proba(train[:2])
+    asked = doubt.doubts(svm, train[:2], names, proba)
+    assert [d["cross_check"] for d in asked] == list(truth[:2])
+    # a caller in a hurry (the streaming Identifier's cross_check=False) gets the margin only
+    quick = doubt.doubts(svm, train[:2], names, proba, cross_check=False)
+    assert all(d["cross_check"] is None for d in quick)
+    # a second opinion that never contradicts a right answer leaves the margin its 5%
+    assert svm.info["doubt"]["right_flagged"] <= doubt.FALSE_ALARM
+    # one that contradicts a third of the right answers leaves the margin nothing: it flags
+    # no answer on its own, and the model file says how often the second opinion contradicts
+    bad = truth.copy()
+    bad[::3] = np.where(bad[::3] == "cone", "sphere", "cone")
+    monkeypatch.setattr(doubt, "cross_check_names", lambda recs, classes: bad[: len(recs)])
+    svm = workflow.train(train, "signature", "svm")
+    assert svm.info["doubt"]["margin"] == -1.0
+    assert svm.info["doubt"]["cross_check_contradicts"] > 0.2
+    # the shape fit does not second itself
+    fit = workflow.train(train, "raw-joints", "shape-fit")
+    assert fit.info["doubt"]["cross_check"] is None

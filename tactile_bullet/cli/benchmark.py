@@ -30,8 +30,8 @@ def add_parser(sub) -> None:
     parser.add_argument(
         "--protocol", metavar="NAME,...", default="all",
         help="in-distribution, unseen-sizes, unseen-poses, sensor-noise, sim-shift, "
-        "coupling-shift, or all (those six); cross-engine and mixed-engine (bullet and mujoco) "
-        "when named",
+        "coupling-shift, or all (those six, the default); cross-engine and mixed-engine "
+        "(bullet and mujoco) when named",
     )  # fmt: skip
     parser.add_argument("--descriptor", metavar="A,B", help="descriptors (default: all installed)")
     parser.add_argument("--classifier", metavar="X,Y", help="classifiers (default: all installed)")
@@ -55,7 +55,7 @@ def add_parser(sub) -> None:
         "comparison suite's)",
     )  # fmt: skip
     parser.add_argument(
-        "--workers", type=count(1, MAX_WORKERS), default=2, help="simulation processes"
+        "--workers", type=count(1, MAX_WORKERS), default=2, help="simulation processes (default 2)"
     )
     parser.add_argument("--seed", type=seed_number, default=0, help="seed of the perturbations")
     add_engine_flag(parser)

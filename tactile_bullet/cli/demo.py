@@ -37,7 +37,7 @@ def add_parser(sub) -> None:
     parser.add_argument("--seed", type=seed_number, default=0, help="seed of sizes and offsets")
     parser.add_argument(
         "--workers", type=count(1, MAX_WORKERS), default=min(2, os.cpu_count() or 1),
-        help="simulation processes",
+        help="simulation processes (default 2, or 1 on a one-core machine)",
     )  # fmt: skip
     add_force_flag(parser, "output of an earlier demo in --out")
     parser.add_argument("--quick", action="store_true", help="a tiny run (a few grasps per shape)")

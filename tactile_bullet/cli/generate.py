@@ -43,11 +43,14 @@ def add_parser(sub) -> None:
     parser.add_argument("--out", required=True, help="dataset directory (new or resumed)")
     parser.add_argument(
         "--workers", type=count(0, MAX_WORKERS), default=1,
-        help="local worker processes (0: in this process)",
+        help="local worker processes, 0: in this process (default 1)",
     )  # fmt: skip
     parser.add_argument("--cluster", metavar="ADDRESS", help="Dask scheduler, e.g. tcp://h:8786")
     parser.add_argument("--resume", action="store_true", help="finish an interrupted run")
-    parser.add_argument("--seed", type=seed_number, default=0)
+    parser.add_argument(
+        "--seed", type=seed_number, default=0,
+        help="seed of a random sweep's draws and of each grasp's record, 0 to 2^32-1 (default 0)",
+    )  # fmt: skip
     parser.add_argument(
         "--shard-size", type=count(1, MAX_SHARD_SIZE), default=None,
         help="grasps per shard (default 32; on --resume, the dataset's own)",

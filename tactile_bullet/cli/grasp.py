@@ -38,15 +38,25 @@ def add_parser(sub) -> None:
     parser.add_argument(
         "--offset", default="0,0,0", metavar="X,Y,Z",
         help="object offset from its resting place in metres, palm frame: x along O-O', "
-        "y along the palm normal (positive toward the palm), z along the fingers",
+        "y along the palm normal (positive toward the palm), z along the fingers (default 0,0,0)",
     )  # fmt: skip
     parser.add_argument(
-        "--rotation", default="0", metavar="DEG", help="object rotation about the palm normal"
+        "--rotation", default="0", metavar="DEG",
+        help="object rotation about the palm normal in degrees, within +-90 (default 0)",
     )
-    parser.add_argument("--mode", choices=("torque", "contact"), default="torque")
-    parser.add_argument("--delta", type=float, help="joint step per control tick (rad)")
-    parser.add_argument("--thres", type=float, help="torque threshold thresT (N m)")
-    parser.add_argument("--max-time", type=float, help="simulated time limit (s)")
+    parser.add_argument(
+        "--mode", choices=("torque", "contact"), default="torque",
+        help="stop rule of a closing joint: torque (its effort over --thres) or contact (a "
+        "phalanx touches) (default torque)",
+    )  # fmt: skip
+    parser.add_argument(
+        "--delta", type=float, help="joint step per control tick in rad (default 0.006)"
+    )
+    parser.add_argument("--thres", type=float, help="torque threshold thresT in N m (default 0.35)")
+    parser.add_argument(
+        "--max-time", type=float,
+        help="simulated time limit in s, at most 60 (default 4)",
+    )
     parser.add_argument(
         "--preshape", action="store_true",
         help="start each finger where its sweep comes within 5 mm of the object (1.2x faster, "
@@ -62,7 +72,10 @@ def add_parser(sub) -> None:
         "--coupling", choices=("j2-first", "equal-torque", "distal-first"), default="j2-first",
         help="how the J1/J2 tendon shares its travel (docs/transfer.md; default j2-first)",
     )  # fmt: skip
-    parser.add_argument("--seed", type=seed_number, default=0)
+    parser.add_argument(
+        "--seed", type=seed_number, default=0,
+        help="seed stored in the record; the grasp itself is deterministic (default 0)",
+    )  # fmt: skip
     parser.add_argument("--out", help="write the GraspRecord to this .npz file")
     parser.add_argument("--snapshot", help="render the grasp to this PNG (CPU renderer)")
     parser.add_argument("--plot", help="draw FCI and signatures of the grasp to this PNG")

@@ -48,12 +48,17 @@ def add_parser(sub) -> None:
         "--param", action="append", metavar="KEY=VALUE", help="shape size in metres (repeatable)"
     )
     parser.add_argument(
-        "--offset", default="0,0,0", metavar="X,Y,Z", help="object offset in metres (palm frame)"
-    )
+        "--offset", default="0,0,0", metavar="X,Y,Z",
+        help="object offset in metres, palm frame as in grasp (default 0,0,0)",
+    )  # fmt: skip
     parser.add_argument(
-        "--rotation", default="0", metavar="DEG", help="object rotation about the palm normal"
-    )
-    parser.add_argument("--seed", type=seed_number, default=0)
+        "--rotation", default="0", metavar="DEG",
+        help="object rotation about the palm normal in degrees (default 0)",
+    )  # fmt: skip
+    parser.add_argument(
+        "--seed", type=seed_number, default=0,
+        help="seed stored in the simulated record (default 0)",
+    )  # fmt: skip
     add_engine_flag(parser, hand_model=True)
     parser.add_argument("--json", action="store_true", help="print one JSON document")
     add_recording_options(parser)

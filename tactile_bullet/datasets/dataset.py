@@ -165,8 +165,9 @@ class Dataset:
         }
 
 
-def load_dataset(path: str | os.PathLike, allow_partial: bool = False) -> Dataset:
-    """The dataset at ``path``; see :class:`Dataset` for ``allow_partial``."""
+def open_dataset(path: str | os.PathLike, allow_partial: bool = False) -> Dataset:
+    """The dataset at ``path`` as a :class:`Dataset` (lazy records, metadata, features); see
+    :class:`Dataset` for ``allow_partial``. ``tactile_bullet.load_dataset`` gives ``(X, y)``."""
     return Dataset(path, allow_partial)
 
 

@@ -2,29 +2,9 @@
 
 A sweep is plain data, read from TOML or taken from a preset, and expands into a list of
 :class:`GraspTask` with one seed each. Every dimension (a size parameter, an offset
-coordinate, the rotation) is either a list of values or a ``{min, max}`` range:
-
-- ``mode = "grid"``: the product of all value lists (a range needs ``steps``: evenly spaced);
-- ``mode = "random"``: ``samples`` tasks per shape, each dimension drawn uniformly from its
-  list or range with the sweep's seeded generator.
-
-Example::
-
-    name = "my-sweep"
-    mode = "grid"
-    [controller]
-    mode = "torque"
-    [[shapes]]
-    name = "cylinder"
-    params = { radius = [0.025, 0.035, 0.045] }
-    offset_x = [-0.005, 0.0, 0.005]
-    rotation_deg = [0, 10, 20]
-
-A size parameter left out takes its default (grid) or its whole valid range (random).
-
-Mesh files join a sweep as ``[[objects]]`` tables (``file = "mug.stl"`` with optional ``name``,
-``unit``, ``scale``, ``axis``; or ``folder = "objects/"`` for every mesh file in it), with the
-same pose keys as a shape; their grasps are labelled with the object names (``objects/meshes.py``).
+coordinate, the rotation) is either a list of values or a ``{min, max}`` range, expanded as a
+grid or drawn at random. The TOML format, the presets and the limits are described for users
+in ``docs/sweeps.md``; mesh files join as ``[[objects]]`` tables (``objects/meshes.py``).
 
 A ``[randomize]`` table draws the hand and physics per grasp (friction, thresT, closing speed,
 phalanx lengths, joint reading offsets, J1/J2 coupling, contact stiffness, control rate), each

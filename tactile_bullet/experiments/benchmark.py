@@ -158,9 +158,9 @@ def _complete(path: Path, spec: P.SetSpec) -> bool:
 
 def load_set(path: str | os.PathLike) -> tuple[list[GraspRecord], int]:
     """Usable records of a set (with their series) and how many grasps touched nothing."""
-    from ..datasets.dataset import load_dataset
+    from ..datasets.dataset import open_dataset
 
-    records = list(load_dataset(path).records(full=True))
+    records = list(open_dataset(path).records(full=True))
     kept = [r for r in records if "no_contact" not in r.flags]
     return kept, len(records) - len(kept)
 

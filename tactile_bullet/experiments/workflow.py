@@ -323,6 +323,7 @@ def compare(
                 "train_records": len(train_records),
                 "test_records": len(test_records),
             }
+            row["ambiguous"] = None
             if doubt:
                 trained, tested = (x_train, y_train, train_records), (x_test, y_test, test_records)
                 row["ambiguous"] = pair_doubt(name, estimator, trained, tested, seconds)
@@ -353,6 +354,7 @@ def _skipped_row(descriptor, classifier, reason, train_records, test_records) ->
         "train_records": len(train_records),
         "test_records": len(test_records),
         "skipped": reason,
+        "ambiguous": None,
     }
 
 

@@ -28,3 +28,9 @@ def register_classifiers(register):
 @hookspec
 def register_shapes(register):
     """Register shapes: ``register(name, shape)`` with a ``shapes.Shape`` of that name."""
+
+
+@hookspec
+def register_engines(register):
+    """Register physics engines: ``register(name, factory)``, ``factory(shape, params, pose,
+    controller, *, gui=False, visual=False)`` -> a ``sim.engines.base.Engine``."""

@@ -39,6 +39,7 @@ DEFAULT_PLUGINS: tuple[str, ...] = (
     "tactile_bullet.objects.builtin",
     "tactile_bullet.learn.builtin",
     "tactile_bullet.learn.classifiers.builtin",
+    "tactile_bullet.sim.engines.builtin",
 )
 """Built-in plugin modules, registered exactly like installed ones."""
 
@@ -50,10 +51,16 @@ KINDS: dict[str, str] = {
     "descriptors": "register_descriptors",
     "classifiers": "register_classifiers",
     "shapes": "register_shapes",
+    "engines": "register_engines",
 }
 """Registry kind -> the hook that fills it."""
 
-_SINGULAR = {"descriptors": "descriptor", "classifiers": "classifier", "shapes": "shape"}
+_SINGULAR = {
+    "descriptors": "descriptor",
+    "classifiers": "classifier",
+    "shapes": "shape",
+    "engines": "engine",
+}
 _NAME = re.compile(r"^[A-Za-z0-9][A-Za-z0-9_.-]*$")
 
 
@@ -314,6 +321,21 @@ def shape_names() -> list[str]:
 def get_shape(name: str):
     """The registered ``shapes.Shape`` called ``name``."""
     return _lookup("shapes", name).value
+
+
+def engine_names() -> list[str]:
+    """Registered physics engine names, built-in ones first (``bullet`` is the default)."""
+    return list(_loaded().entries["engines"])
+
+
+def get_engine(name: str):
+    """The factory of the engine called ``name``; an unknown name lists the registered ones,
+    and an engine whose package is missing says how to install it (both UsageError)."""
+    factory = _lookup("engines", name).value
+    missing = getattr(factory, "missing", None)
+    if missing is not None and (why := missing()):
+        raise UsageError(why)
+    return factory
 
 
 def descriptor_names() -> list[str]:

@@ -120,6 +120,13 @@ class ControllerSettings:
     contact_stiffness: float = 0.0
     """Contact stiffness (N/m) between the hand and the object, a soft fingertip's; 0: the
     engine's rigid contact."""
+    engine: str = "bullet"
+    """The physics engine (``sim/engines/``, the ``register_engines`` hook): ``bullet`` or
+    ``mujoco`` built in. Left out of saved records while ``bullet``, so older records and
+    datasets stay byte-identical and resumable."""
+    hand_model: str | None = None
+    """Another MJCF model of the Shadow hand for the ``mujoco`` engine (``--hand-model``, an
+    absolute path; docs/engines.md lists what it must have). None: the project's own."""
 
     def __post_init__(self) -> None:
         if self.mode not in ("torque", "contact"):
@@ -152,6 +159,10 @@ class ControllerSettings:
                 f"controller timestep must be at most 0.01 s and sample_rate at most one "
                 f"sample per step, got {self.timestep!r} s and {self.sample_rate!r} Hz"
             )
+        if not isinstance(self.engine, str) or not self.engine:
+            raise UsageError(f"controller engine must be an engine name, got {self.engine!r}")
+        if self.hand_model is not None and not isinstance(self.hand_model, str):
+            raise UsageError(f"controller hand_model must be a file path, got {self.hand_model!r}")
         scale = self.phalanx_scale
         if isinstance(scale, bool) or not isinstance(scale, int | float) or not 0.8 <= scale <= 1.2:
             raise UsageError(f"controller phalanx_scale must be from 0.8 to 1.2, got {scale!r}")
@@ -200,13 +211,15 @@ def _check_variation(ctl: ControllerSettings) -> None:
         )
 
 
-PHYSICS_DEFAULTS: dict[str, float | bool | str | tuple] = {
+PHYSICS_DEFAULTS: dict[str, float | bool | str | tuple | None] = {
     "friction": 0.8,
     "phalanx_scale": 1.0,
     "early_stop": False,
     "coupling": "j2-first",
     "joint_offsets": (),
     "contact_stiffness": 0.0,
+    "engine": "bullet",
+    "hand_model": None,
 }
 """Fields of ControllerSettings added after records were first written (physics knobs and
 the early grasp end): left out of the saved form while at these values, so older records,

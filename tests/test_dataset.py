@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 from synthetic import SMALL_SWEEP as SMALL
 
-from tactile_bullet.datasets.dataset import load_dataset
+from tactile_bullet.datasets.dataset import open_dataset
 from tactile_bullet.datasets.generate import generate
 from tactile_bullet.datasets.integrity import DamagedDataset
 from tactile_bullet.datasets.sweeps import Sweep
@@ -66,7 +66,7 @@ def test_round_trip_keeps_every_record_and_reports_failures(tmp_path):
     out = tmp_path / "ds"
     doc = generate(sweep(tmp_path, MANY), out, workers=0, shard_size=4, task_fn=fake_grasp)
     assert doc["records"] == 14 and doc["failed"] == 1 and doc["shards"] == 4
-    data = load_dataset(out)
+    data = open_dataset(out)
     assert len(data) == 14
     records = list(data)
     expected = [fake_grasp(t) for t in sweep(tmp_path, MANY).tasks(0)]
@@ -84,7 +84,7 @@ def test_round_trip_keeps_every_record_and_reports_failures(tmp_path):
 def test_lazy_records_skip_time_series_and_features_come_shard_by_shard(tmp_path):
     out = tmp_path / "ds"
     generate(sweep(tmp_path, MANY), out, workers=0, shard_size=4, task_fn=fake_grasp)
-    data = load_dataset(out)
+    data = open_dataset(out)
     light = list(data.records(full=False))
     assert all(r.angles.shape[0] == 0 for r in light)
     assert all(r.final_angles.shape == (24,) for r in light)
@@ -109,8 +109,8 @@ rotation_deg = [10]
     )
     out = tmp_path / "ds"
     generate(sweep(tmp_path, text), out, workers=0, shard_size=4, task_fn=fake_grasp)
-    meta = load_dataset(out).metadata()
-    records = list(load_dataset(out).records())
+    meta = open_dataset(out).metadata()
+    records = list(open_dataset(out).records())
     assert list(meta["shape"]) == [r.shape for r in records] == ["cylinder"] * 14 + ["sphere"]
     assert np.array_equal(meta["offset"], [r.pose.offset for r in records])
     assert np.allclose(meta["rotation"][-1], np.radians(10)) and not meta["rotation"][:-1].any()
@@ -127,8 +127,8 @@ def test_a_corrupted_shard_is_an_error_unless_a_partial_read_is_allowed(tmp_path
     data = shard.read_bytes()
     shard.write_bytes(data[:100] + bytes([data[100] ^ 0xFF]) + data[101:])
     with pytest.raises(DamagedDataset, match="shard-00001.npz: checksum mismatch"):
-        list(load_dataset(out))
-    dataset = load_dataset(out, allow_partial=True)
+        list(open_dataset(out))
+    dataset = open_dataset(out, allow_partial=True)
     records = list(dataset)
     assert len(records) == 14 - 3  # shard 1 held tasks 4, 6, 7 (5 failed)
     assert dataset.corrupted == ["shard-00001.npz"] and dataset.skipped_records == 3
@@ -222,7 +222,7 @@ def test_killed_run_resumes_to_the_same_bytes_as_an_uninterrupted_one(tmp_path, 
     doc = generate(Sweep.from_toml(config), killed, workers=0, resume=True)  # its shard size
     assert doc["records"] == 4 and doc["shards"] == 4
     assert files(killed) == files(whole)
-    a, b = list(load_dataset(killed)), list(load_dataset(whole))
+    a, b = list(open_dataset(killed)), list(open_dataset(whole))
     assert len(a) == len(b) == 4
     assert all(x.equals(y) for x, y in zip(a, b, strict=True))
 

@@ -19,7 +19,7 @@ from cli_helpers import run_error
 from synthetic import make_record
 
 from tactile_bullet.cli import main
-from tactile_bullet.datasets.dataset import PartialDataWarning, load_dataset, read_records, verify
+from tactile_bullet.datasets.dataset import PartialDataWarning, open_dataset, read_records, verify
 from tactile_bullet.datasets.generate import generate
 from tactile_bullet.datasets.integrity import DamagedDataset
 from tactile_bullet.datasets.sweeps import Sweep
@@ -116,7 +116,7 @@ def files(folder: Path) -> dict[str, bytes]:
 def test_a_damaged_shard_is_an_error_naming_it(ds, damage):
     DAMAGE[damage](ds / "shard-00001.npz")
     with pytest.raises(DamagedDataset, match=f"shard-00001.npz: {SAYS[damage]}"):
-        list(load_dataset(ds))
+        list(open_dataset(ds))
     with pytest.raises(UsageError, match="shard-00001.npz"):
         records_from(ds)
 
@@ -171,7 +171,7 @@ def test_the_python_api_reads_partially_only_when_asked_and_warns(ds):
     assert len(records) == N_RECORDS - 4
     loaded = read_records(ds, allow_partial=True)
     assert loaded.skipped_records == 4 and len(loaded.records) == N_RECORDS - 4
-    data = load_dataset(ds, allow_partial=True)
+    data = open_dataset(ds, allow_partial=True)
     assert len(data.metadata()["shape"]) == N_RECORDS - 4 == len(data.metadata()["task"])
     assert data.corrupted == ["shard-00004.npz"] and data.skipped_records == 4
 
@@ -183,7 +183,7 @@ def test_an_unfinished_dataset_is_partial_data(ds):
     delete(ds / "shard-00003.npz")
     delete(ds / "shard-00004.npz")
     with pytest.raises(DamagedDataset, match="shard-00003.npz: not generated"):
-        load_dataset(ds)
+        open_dataset(ds)
     loaded = read_records(ds, allow_partial=True)
     assert len(loaded.records) == 12 and "8 tasks never generated" in loaded.summary()
 
@@ -263,7 +263,7 @@ def test_a_tampered_manifest_is_refused_with_the_reason(ds, tmp_path, capsys, ca
     change, message = TAMPERED[case]
     rewrite_manifest(ds, change)
     with pytest.raises(UsageError, match=message):
-        list(load_dataset(ds))
+        list(open_dataset(ds))
     err = run_error(capsys, ["train", "--data", str(ds), "--out", str(tmp_path / "m.npz")])
     assert message.split(": ")[-1].strip("'") in err
     assert main(["verify", "--data", str(ds)]) == 2
@@ -284,18 +284,18 @@ def test_a_shard_that_links_outside_the_dataset_is_refused(ds, tmp_path):
     shutil.move(ds / "shard-00002.npz", elsewhere)
     os.symlink(elsewhere, ds / "shard-00002.npz")
     with pytest.raises(DamagedDataset, match="shard-00002.npz: a link to .*outside the dataset"):
-        load_dataset(ds)
+        open_dataset(ds)
     os.unlink(ds / "shard-00002.npz")
     os.symlink("/dev/zero", ds / "shard-00002.npz")
     with pytest.raises(DamagedDataset, match="outside the dataset"):
-        load_dataset(ds)
+        open_dataset(ds)
 
 
 def test_a_shard_that_is_not_a_regular_file_is_refused(ds):
     delete(ds / "shard-00000.npz")
     os.mkfifo(ds / "shard-00000.npz")  # reading it would block forever
     with pytest.raises(DamagedDataset, match="shard-00000.npz: not a regular file"):
-        load_dataset(ds)
+        open_dataset(ds)
 
 
 # --- verify ---------------------------------------------------------------------------------
@@ -376,7 +376,7 @@ def test_a_killed_resume_never_lists_the_damaged_shard_again(ds, pristine):
         generate(mix_sweep(ds.parent), ds, workers=0, shard_size=SHARD_SIZE, resume=True,
                  task_fn=killed)  # fmt: skip
     with pytest.raises(DamagedDataset, match="shard-00002.npz: not generated"):
-        load_dataset(ds)
+        open_dataset(ds)
     write(mix_sweep(ds.parent), ds, resume=True)
     assert files(ds) == files(pristine)
 

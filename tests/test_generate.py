@@ -10,7 +10,7 @@ import sys
 import pytest
 from synthetic import SMALL_SWEEP as SMALL
 
-from tactile_bullet.datasets.dataset import load_dataset
+from tactile_bullet.datasets.dataset import open_dataset
 from tactile_bullet.datasets.executors import CRASH_ENV
 from tactile_bullet.datasets.generate import generate
 from tactile_bullet.datasets.sweeps import Sweep, preset
@@ -38,13 +38,13 @@ def test_a_worker_killed_by_a_segfault_does_not_kill_the_run(small, tmp_path, mo
     manifest = json.loads((tmp_path / "ds" / "manifest.json").read_text())
     assert [f["task"] for f in manifest["failed"]] == [2]
     assert "died" in manifest["failed"][0]["error"]
-    assert sorted(r.shape for r in load_dataset(tmp_path / "ds")) == ["cylinder"] * 2 + ["sphere"]
+    assert sorted(r.shape for r in open_dataset(tmp_path / "ds")) == ["cylinder"] * 2 + ["sphere"]
 
 
 def test_two_workers_give_the_same_records_as_one(small, tmp_path):
     generate(Sweep.from_toml(small), tmp_path / "a", workers=0, shard_size=3)
     generate(Sweep.from_toml(small), tmp_path / "b", workers=2, shard_size=3)
-    a, b = list(load_dataset(tmp_path / "a")), list(load_dataset(tmp_path / "b"))
+    a, b = list(open_dataset(tmp_path / "a")), list(open_dataset(tmp_path / "b"))
     assert len(a) == 4 and all(x.equals(y) for x, y in zip(a, b, strict=True))
 
 
@@ -56,7 +56,7 @@ def test_a_dask_cluster_gives_the_same_records_as_a_local_run(small, tmp_path):
         doc = generate(Sweep.from_toml(small), tmp_path / "dask", cluster=cluster.scheduler_address)
     assert doc["records"] == 4
     generate(Sweep.from_toml(small), tmp_path / "local", workers=0)
-    a, b = list(load_dataset(tmp_path / "dask")), list(load_dataset(tmp_path / "local"))
+    a, b = list(open_dataset(tmp_path / "dask")), list(open_dataset(tmp_path / "local"))
     assert all(x.equals(y) for x, y in zip(a, b, strict=True))
 
 
@@ -76,7 +76,7 @@ def test_cli_json_contract(tmp_path):
     doc = json.loads(result.stdout)
     assert set(doc) >= {"out", "records", "shards", "failed", "wall_time_s"}
     assert doc["records"] == len(preset("smoke").tasks()) and doc["failed"] == 0
-    assert len(load_dataset(tmp_path / "ds")) == doc["records"]
+    assert len(open_dataset(tmp_path / "ds")) == doc["records"]
 
 
 @pytest.mark.parametrize(

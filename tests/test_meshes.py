@@ -3,7 +3,6 @@ of bad input (exit 2, nothing written) and a grasp on a mesh that touches it."""
 
 from __future__ import annotations
 
-import importlib.util
 import json
 from pathlib import Path
 
@@ -32,12 +31,9 @@ def private_cache(tmp_path_factory, monkeypatch):
 
 
 def make_objects_tool():
-    spec = importlib.util.spec_from_file_location(
-        "make_objects", REPO / "tools" / "make_objects.py"
-    )
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
+    from tactile_bullet.objects import examples
+
+    return examples
 
 
 EGG_X = np.linspace(-0.065, 0.065, 64)

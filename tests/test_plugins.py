@@ -102,6 +102,54 @@ def test_hook_register_shapes(register_test_plugin, capsys):
     assert "test-short-cylinder" in listed
 
 
+def test_hook_register_engines(register_test_plugin, capsys, tmp_path):
+    """A third-party engine drives Algorithm 1 through the Engine interface: here one that
+    wraps the bullet engine and counts the controller's ticks."""
+    from tactile_bullet.records import (
+        ControllerSettings,
+        controller_dict,
+        load_record,
+        save_record,
+    )
+    from tactile_bullet.sim.engines.bullet import BulletEngine
+    from tactile_bullet.sim.grasp import simulate_grasp
+
+    ticks = []
+
+    class Counting(BulletEngine):
+        name = "test-counting"
+
+        def step(self):
+            ticks.append(1)
+            super().step()
+
+    class Plugin:
+        @hookimpl
+        def register_engines(self, register):
+            register("test-counting", lambda *a, **k: Counting(*a, **k))
+
+    register_test_plugin(Plugin(), "test-engine-plugin")
+    assert "test-counting" in plugins.engine_names()
+    ctl = ControllerSettings(mode="contact", engine="test-counting")
+    record = simulate_grasp("cylinder", controller=ctl)
+    assert record.steps == len(ticks) > 0 and "lf" in record.fingers_in_contact
+    assert record.metadata()["controller"]["engine"] == "test-counting"
+    assert "engine" not in controller_dict(ControllerSettings())  # bullet: as before engines
+    assert load_record(save_record(record, tmp_path / "r.npz")).controller.engine == "test-counting"
+    assert main(["plugins", "--json"]) == 0
+    listed = {p["name"]: p for p in json.loads(capsys.readouterr().out)}
+    assert listed["test-engine-plugin"]["engines"] == ["test-counting"]
+    assert listed["tactile_bullet.sim.engines.builtin"]["engines"] == ["bullet", "mujoco"]
+
+
+def test_unknown_engine_is_a_usage_error_listing_the_registered_ones():
+    from tactile_bullet.records import ControllerSettings
+    from tactile_bullet.sim.grasp import simulate_grasp
+
+    with pytest.raises(UsageError, match=r"unknown engine 'ode'.*bullet, mujoco"):
+        simulate_grasp("cylinder", controller=ControllerSettings(engine="ode"))
+
+
 def test_a_plugin_is_gone_once_unregistered(register_test_plugin):
     class Plugin:
         @hookimpl

@@ -119,18 +119,46 @@ def test_every_protocol_has_one_headline_at_every_scale():
         for protocol in table.values():
             assert sum(level.headline for level in protocol.levels) == 1
             sets = P.sets(scale)
-            assert protocol.train in sets
-            assert all(t in sets and t != protocol.train for lv in protocol.levels for t in lv.test)
+            for level in protocol.levels:
+                train = P.train_sets(level.train or protocol.train)
+                assert all(t in sets for t in train)
+                assert all(t in sets and t not in train for t in level.test)
     noise = P.protocols("full")["sensor-noise"].headline
     assert noise.sensor == SensorModel.degrees(sigma=1.0, bias=3.0)
     assert P.protocols("full")["sim-shift"].headline.name == "+-20%"
 
 
 def test_protocol_names_resolve_or_fail_naming_the_bad_one():
-    assert P.resolve("all") == list(P.PROTOCOL_NAMES)
+    assert P.resolve("all") == list(P.DEFAULT_PROTOCOLS)  # no optional engine needed
+    assert P.resolve("mixed-engine,cross-engine") == ["cross-engine", "mixed-engine"]
     assert P.resolve("sim-shift,in-distribution") == ["in-distribution", "sim-shift"]
     with pytest.raises(UsageError, match="unknown protocol 'noise'"):
         P.resolve("sensor-noise,noise")
+
+
+def test_cross_engine_sets_are_the_same_grasps_on_each_engine():
+    """bullet->mujoco compares like with like: the mujoco sets draw the very same tasks (shape,
+    sizes, pose, seed), only the controller's engine differs."""
+    sets = P.sets("tiny")
+    for kind in ("demo-train", "demo-test"):
+        bullet = sets[f"tiny-{kind}"].sweep().tasks(0)
+        mujoco = sets[f"tiny-mujoco-{kind}"].sweep().tasks(0)
+        assert [(t.shape, t.params, t.pose, t.seed) for t in bullet] == [
+            (t.shape, t.params, t.pose, t.seed) for t in mujoco
+        ]
+        assert {t.controller.engine for t in bullet} == {"bullet"}
+        assert {t.controller.engine for t in mujoco} == {"mujoco"}
+    cross = P.protocols("tiny")["cross-engine"]
+    assert [(lv.name, lv.train) for lv in cross.levels] == [
+        ("bullet->mujoco", None), ("mujoco->bullet", "tiny-mujoco-demo-train")
+    ]
+    assert P.protocols("tiny")["mixed-engine"].train == "tiny-demo-train+tiny-mujoco-demo-train"
+
+
+def test_benchmark_engine_moves_every_single_engine_set_to_it():
+    specs = P.needed_sets(["in-distribution", "sim-shift"], "tiny", engine="mujoco")
+    assert specs and all(s.name.startswith("tiny-mujoco-") for s in specs)
+    assert {s.controller.engine for s in specs} == {"mujoco"}
 
 
 def _fractions(task) -> list[float]:

@@ -1,5 +1,6 @@
 """The README's examples run, in order, on a fresh folder: every ```bash block of its
-"Commands" section and every ```python block, each failing the test on a non-zero exit.
+"A short tour" section and every ```python block, each failing the test on a non-zero exit.
+The README stays short, its links resolve, and its set-up commands are what CI runs.
 
 The README quotes the real, long runs (1,143 thesis grasps, a 280-grasp sequential set, ten
 orders of forests); :data:`SUBSTITUTIONS` swaps each for a small stand-in, and nothing else is
@@ -18,7 +19,11 @@ from pathlib import Path
 
 import pytest
 
-README = Path(__file__).resolve().parent.parent / "README.md"
+REPO = Path(__file__).resolve().parent.parent
+README = REPO / "README.md"
+TOUR = "A short tour"
+"""The README section whose bash blocks run in order."""
+MAX_README_LINES = 200
 
 SUBSTITUTIONS: tuple[tuple[str, str, str], ...] = (
     ("--preset thesis", "--preset smoke", "1,143 grasps -> 4"),
@@ -26,9 +31,9 @@ SUBSTITUTIONS: tuple[tuple[str, str, str], ...] = (
     ("samples = 20", "samples = 1", "the held-out set: 100 grasps -> 5"),
     ("--preset temporal", "--preset smoke", "198 grasps with fingers off the object -> 4"),
     (
-        "python tools/make_objects.py --out objects",
-        f"python {README.parent / 'tools' / 'make_objects.py'} --only bottle,pear --out objects",
-        "run from the test's empty folder; 14 objects (252 + 84 grasps) -> 2 (36 + 12)",
+        "make-objects --out objects",
+        "make-objects --only bottle,pear --out objects",
+        "14 objects (252 + 84 grasps) -> 2 (36 + 12)",
     ),
     (
         "tactile-bullet benchmark --quick",
@@ -74,7 +79,7 @@ bound to this interpreter, installed console script or not."""
 
 def readme_blocks(text: str) -> list[tuple[str, str]]:
     """(language, code) of the blocks to run, in README order: ``bash`` blocks inside the
-    "Commands" section, ``python`` blocks anywhere."""
+    :data:`TOUR` section, ``python`` blocks anywhere."""
     blocks = []
     section = ""
     fence = re.compile(r"^```(\w+)\n(.*?)^```", re.S | re.M)
@@ -86,7 +91,7 @@ def readme_blocks(text: str) -> list[tuple[str, str]]:
             section = value.strip()
             continue
         language, code = value.group(1), value.group(2)
-        if (language == "bash" and section == "Commands") or language == "python":
+        if (language == "bash" and section == TOUR) or language == "python":
             blocks.append((language, code))
     return blocks
 
@@ -109,6 +114,45 @@ def test_the_readme_is_parsed_into_blocks():
     languages = [language for language, _ in blocks]
     assert "bash" in languages and "python" in languages
     assert all("pip install" not in code for _, code in blocks)  # "Try it" stays out
+
+
+def test_the_readme_is_short_and_its_links_resolve():
+    text = README.read_text()
+    assert len(text.splitlines()) <= MAX_README_LINES
+    pages = [README, *sorted((REPO / "docs").glob("*.md"))]
+    broken = []
+    for page in pages:
+        for target in re.findall(r"\]\(([^)#\s]+)(?:#[^)]*)?\)", page.read_text()):
+            if "://" in target:
+                continue
+            if not (page.parent / target).exists():
+                broken.append(f"{page.relative_to(REPO)}: {target}")
+    assert not broken, broken
+
+
+def test_the_two_set_up_commands_are_what_ci_runs():
+    """"Try it" holds exactly two commands: one ends in the demo, the other is .ci/run's."""
+    try_it = re.search(r"^## Try it\n(.*?)^## ", README.read_text(), re.S | re.M).group(1)
+    commands = re.findall(r"^```bash\n(.*?)\n```", try_it, re.S | re.M)
+    assert len(commands) == 2
+    demo, tests = commands
+    assert demo.rstrip().endswith("tactile-bullet demo --out demo-report")
+    ci = (REPO / ".ci" / "run").read_text()
+    for step in ('pip install --quiet -e ".[test]" ./plugins/tactile-bullet-example',
+                 "python -m pytest -q"):  # fmt: skip
+        assert step.replace(" --quiet", "") in tests and step in ci
+    for extra in ("torch", "ros"):  # what the tour needs: the neural forest, bags
+        assert extra in re.search(r'-e "\.\[([a-z,]+)\]"', demo).group(1).split(",")
+
+
+def test_licence_and_citation_agree_with_the_package():
+    import tactile_bullet
+
+    assert (REPO / "LICENSE").read_text().startswith("MIT License")
+    assert "license = MIT" in (REPO / "setup.cfg").read_text()
+    cff = (REPO / "CITATION.cff").read_text()
+    assert f'version: "{tactile_bullet.__version__}"' in cff
+    assert "In-hand robotic tactile object recognition" in cff
 
 
 @pytest.mark.slow

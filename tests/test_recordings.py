@@ -256,14 +256,14 @@ def test_recordings_at_a_real_hands_rate_and_length_make_valid_records():
 
 
 def test_recorded_source_survives_a_dataset_and_old_records_stay_simulated(tmp_path, simulated):
-    from tactile_bullet.datasets.dataset import load_dataset
+    from tactile_bullet.datasets.dataset import open_dataset
     from tactile_bullet.realhand.recordings import write_dataset
 
     rec = simulated[0]
     assert "source" not in rec.metadata()  # simulated records are written as before
     recorded = record_from_samples(rec.time, rec.angles, rec.efforts, "cylinder")
     write_dataset([rec, recorded], tmp_path / "ds", {"test": True})
-    back = list(load_dataset(tmp_path / "ds"))
+    back = list(open_dataset(tmp_path / "ds"))
     assert [r.source for r in back] == ["simulated", "recorded"]
     assert back[0].equals(rec)
 

@@ -8,7 +8,7 @@ classifiers on the same split, and the wall time.
 
 One split of 100 test grasps moves by several points from seed to seed (the sizes and offsets
 drawn differ), so ``--seeds`` repeats the whole protocol on independent splits and reports the
-mean and the range, the figure the README quotes:
+mean and the range, the figure docs/performance.md quotes:
 
     python tools/bench_accuracy.py --train-per-shape 40 --test-per-shape 20 --seeds 0,1,2,3,4,5
 

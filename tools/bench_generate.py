@@ -28,7 +28,7 @@ import tempfile
 import time
 from pathlib import Path
 
-from tactile_bullet.datasets.dataset import load_dataset, verify
+from tactile_bullet.datasets.dataset import open_dataset, verify
 from tactile_bullet.datasets.executors import run_task
 from tactile_bullet.datasets.generate import generate
 from tactile_bullet.datasets.shards import encode_shard, fsync_write
@@ -68,7 +68,7 @@ def load_features(path: str) -> None:
     descriptor = get_descriptor("raw-joints")
     before = peak_mib()
     start = time.perf_counter()
-    features = load_dataset(path).features(descriptor)
+    features = open_dataset(path).features(descriptor)
     took = time.perf_counter() - start
     print(f"{features.shape[0]} grasps' raw-joints features loaded in {took:.1f} s; "
           f"peak memory {peak_mib():.0f} MiB ({before:.0f} MiB after imports, before loading; "

@@ -1,5 +1,5 @@
 """How far signature + svm gets on unseen sizes and poses with richer features or model-based
-training data: the two attempts the README and docs/benchmark.md quote.
+training data: the two attempts docs/performance.md and docs/benchmark.md quote.
 
 Reads the benchmark's cached full-scale sets (``tactile-bullet benchmark ... --out bench``
 writes them under ``bench/data``) and prints, for in-distribution / unseen-sizes / unseen-poses:

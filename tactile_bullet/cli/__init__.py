@@ -25,6 +25,7 @@ from ..errors import UsageError
 COMMANDS: tuple[str, ...] = (
     "shapes",
     "shape_info",
+    "make_objects",
     "grasp",
     "generate",
     "verify",
@@ -71,6 +72,8 @@ def build_parser() -> argparse.ArgumentParser:
     parser = _Parser(
         prog="tactile-bullet",
         description="In-hand tactile shape recognition with a simulated Shadow hand.",
+        epilog="New here? Start with `tactile-bullet demo`: it simulates, trains and reports "
+        "in a few minutes. `tactile-bullet COMMAND --help` describes each command.",
     )
     parser.add_argument("--version", action="version", version=f"tactile-bullet {__version__}")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=_Parser)

@@ -7,7 +7,16 @@ import argparse
 import sys
 
 from ..errors import UsageError
-from .common import MAX_WORKERS, count, emit_json, log_lines, seed_number, show_progress
+from .common import (
+    MAX_WORKERS,
+    add_engine_flag,
+    count,
+    emit_json,
+    engine_name,
+    log_lines,
+    seed_number,
+    show_progress,
+)
 
 
 def add_parser(sub) -> None:
@@ -21,7 +30,8 @@ def add_parser(sub) -> None:
     parser.add_argument(
         "--protocol", metavar="NAME,...", default="all",
         help="in-distribution, unseen-sizes, unseen-poses, sensor-noise, sim-shift, "
-        "coupling-shift, or all",
+        "coupling-shift, or all (those six, the default); cross-engine and mixed-engine "
+        "(bullet and mujoco) when named",
     )  # fmt: skip
     parser.add_argument("--descriptor", metavar="A,B", help="descriptors (default: all installed)")
     parser.add_argument("--classifier", metavar="X,Y", help="classifiers (default: all installed)")
@@ -45,9 +55,10 @@ def add_parser(sub) -> None:
         "comparison suite's)",
     )  # fmt: skip
     parser.add_argument(
-        "--workers", type=count(1, MAX_WORKERS), default=2, help="simulation processes"
+        "--workers", type=count(1, MAX_WORKERS), default=2, help="simulation processes (default 2)"
     )
     parser.add_argument("--seed", type=seed_number, default=0, help="seed of the perturbations")
+    add_engine_flag(parser)
     parser.add_argument("--json", action="store_true", help="print the rows as one JSON list")
     from .common import add_hand_calibration_flag
 
@@ -62,6 +73,11 @@ def run(args: argparse.Namespace) -> int:
     if args.scale and args.quick and args.scale != "quick":
         raise UsageError(f"--quick contradicts --scale {args.scale}")
     scale = args.scale or ("quick" if args.quick else "full")
+    engine = engine_name(args) or "bullet"
+    from ..experiments.protocols import ENGINE_PROTOCOLS, resolve
+
+    if any(p in ENGINE_PROTOCOLS for p in resolve(args.protocol)):
+        engine_name(argparse.Namespace(engine="mujoco"))  # both engines must be installed
     descriptors = name_list(args.descriptor, "--descriptor", lambda: default_descriptors(scale))
     classifiers = name_list(args.classifier, "--classifier", lambda: default_classifiers(scale))
     trainings = name_list(args.training, "--training", lambda: ())
@@ -71,7 +87,7 @@ def run(args: argparse.Namespace) -> int:
     doc = run_benchmark(
         args.out, args.protocol, descriptors, classifiers, trainings,
         quick=scale, workers=args.workers, seed=args.seed, cache=args.cache,
-        show=show, log=log,
+        show=show, log=log, engine=engine,
     )  # fmt: skip
     if args.json:
         emit_json(doc["rows"])

@@ -91,6 +91,58 @@ def add_force_flag(parser, what: str) -> None:
     )
 
 
+def add_engine_flag(parser, hand_model: bool = False) -> None:
+    """``--engine NAME``: which physics engine simulates the grasps (default: the sweep's or
+    the controller's, ``bullet``); with ``hand_model``, ``--hand-model FILE.xml`` too."""
+    parser.add_argument(
+        "--engine", metavar="NAME",
+        help="physics engine: bullet (default) or mujoco (pip install 'tactile-bullet[mujoco]'), "
+        "or one a plugin registers",
+    )  # fmt: skip
+    if hand_model:
+        parser.add_argument(
+            "--hand-model", metavar="FILE.xml",
+            help="another MJCF Shadow hand for the mujoco engine, found by Shadow's joint names "
+            "(docs/engines.md)",
+        )  # fmt: skip
+
+
+def engine_settings(args: argparse.Namespace) -> dict[str, str]:
+    """The controller fields ``--engine`` and ``--hand-model`` ask for (none given: empty),
+    checked before any work: an unknown or missing engine, or a hand model lacking a joint or
+    an actuator, is a UsageError naming it. ``--hand-model`` implies ``--engine mujoco``."""
+    out: dict[str, str] = {}
+    engine = engine_name(args)
+    model = getattr(args, "hand_model", None)
+    if model is not None:
+        if engine not in (None, "mujoco"):
+            raise UsageError(f"--hand-model is an MJCF model: not with --engine {engine}")
+        engine = engine_name(argparse.Namespace(engine="mujoco"))
+        from ..files import input_path
+        from ..sim.engines.mujoco_hand import load_hand_spec
+
+        if input_path(model, "hand model").suffix.lower() != ".xml":
+            raise UsageError(f"--hand-model {model} is not an MJCF model file (.xml)")
+
+        load_hand_spec(model)
+        out["hand_model"] = str(Path(model).resolve())
+    if engine is not None:
+        out["engine"] = engine
+    return out
+
+
+def engine_name(args: argparse.Namespace) -> str | None:
+    """The ``--engine`` asked for, checked before any work (unknown or not installed: a
+    UsageError naming the installed ones or how to install it); None when not given."""
+    name = getattr(args, "engine", None)
+    if name is None:
+        return None
+    from ..plugins import get_engine
+
+    get_engine(name)
+    return name
+
+
 def output_files(paths: Mapping[str, str | None], force: bool) -> dict[str, Path]:
     """Check every output file of a command before any work: writable, not already there
     (unless ``force``), and no two flags naming the same file (the second would silently

@@ -26,7 +26,10 @@ def add_parser(sub) -> None:
     parser.add_argument(
         "--classifier", metavar="X,Y", help="classifiers to compare (default: all installed)"
     )
-    parser.add_argument("--test-fraction", type=float, default=0.3, help="share held out")
+    parser.add_argument(
+        "--test-fraction", type=float, default=0.3,
+        help="share of --data held out for testing when no --test is given (default 0.3)",
+    )
     parser.add_argument("--seed", type=seed_number, default=0, help="seed of the split")
     parser.add_argument("--json", action="store_true", help="print one JSON document")
     from .common import add_hand_calibration_flag

@@ -8,9 +8,11 @@ import sys
 
 from .common import (
     MAX_WORKERS,
+    add_engine_flag,
     add_force_flag,
     count,
     emit_json,
+    engine_name,
     log_lines,
     seed_number,
     show_progress,
@@ -35,10 +37,11 @@ def add_parser(sub) -> None:
     parser.add_argument("--seed", type=seed_number, default=0, help="seed of sizes and offsets")
     parser.add_argument(
         "--workers", type=count(1, MAX_WORKERS), default=min(2, os.cpu_count() or 1),
-        help="simulation processes",
+        help="simulation processes (default 2, or 1 on a one-core machine)",
     )  # fmt: skip
     add_force_flag(parser, "output of an earlier demo in --out")
     parser.add_argument("--quick", action="store_true", help="a tiny run (a few grasps per shape)")
+    add_engine_flag(parser)
     parser.add_argument("--json", action="store_true", help="print one JSON document")
     parser.set_defaults(run=run)
 
@@ -46,6 +49,7 @@ def add_parser(sub) -> None:
 def run(args: argparse.Namespace) -> int:
     from ..experiments.workflow import demo, demo_text
 
+    engine = engine_name(args) or "bullet"
     show = show_progress(args.json)
     sizes = QUICK if args.quick else {}
 
@@ -57,7 +61,7 @@ def run(args: argparse.Namespace) -> int:
 
     doc = demo(
         args.out, seed=args.seed, workers=args.workers, show=show, log=log, force=args.force,
-        **sizes,
+        engine=engine, **sizes,
     )  # fmt: skip
     if args.json:
         emit_json(doc)

@@ -25,7 +25,10 @@ def add_parser(sub) -> None:
         help="bag: ROS 1 file; db3, mcap: ROS 2 bag folder; csv: one table",
     )  # fmt: skip
     parser.add_argument("--out", required=True, metavar="PATH", help="file or bag folder")
-    parser.add_argument("--topic", default="/joint_states", help="JointState topic")
+    parser.add_argument(
+        "--topic", default="/joint_states",
+        help="JointState topic (default /joint_states)",
+    )
     parser.add_argument("--prefix", default="rh_", help="joint name prefix (default rh_)")
     parser.add_argument(
         "--coupled", action="store_true",

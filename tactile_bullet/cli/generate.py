@@ -11,7 +11,15 @@ from pathlib import Path
 
 from ..console import plural
 from ..errors import UsageError
-from .common import MAX_WORKERS, count, emit_json, seed_number, show_progress
+from .common import (
+    MAX_WORKERS,
+    add_engine_flag,
+    count,
+    emit_json,
+    engine_settings,
+    seed_number,
+    show_progress,
+)
 
 MAX_SHARD_SIZE = 4096
 """A shard's records wait in memory until its block is whole: bounded, so a typo cannot
@@ -35,15 +43,19 @@ def add_parser(sub) -> None:
     parser.add_argument("--out", required=True, help="dataset directory (new or resumed)")
     parser.add_argument(
         "--workers", type=count(0, MAX_WORKERS), default=1,
-        help="local worker processes (0: in this process)",
+        help="local worker processes, 0: in this process (default 1)",
     )  # fmt: skip
     parser.add_argument("--cluster", metavar="ADDRESS", help="Dask scheduler, e.g. tcp://h:8786")
     parser.add_argument("--resume", action="store_true", help="finish an interrupted run")
-    parser.add_argument("--seed", type=seed_number, default=0)
+    parser.add_argument(
+        "--seed", type=seed_number, default=0,
+        help="seed of a random sweep's draws and of each grasp's record, 0 to 2^32-1 (default 0)",
+    )  # fmt: skip
     parser.add_argument(
         "--shard-size", type=count(1, MAX_SHARD_SIZE), default=None,
         help="grasps per shard (default 32; on --resume, the dataset's own)",
     )  # fmt: skip
+    add_engine_flag(parser, hand_model=True)
     parser.add_argument("--json", action="store_true", help="print one JSON document")
     parser.set_defaults(run=run)
 
@@ -104,9 +116,13 @@ def run(args: argparse.Namespace) -> int:
     import contextlib
 
     from ..datasets.generate import generate
+    from ..datasets.sweep_engines import with_engine
     from ..datasets.sweeps import Sweep, preset
 
+    settings = engine_settings(args)
     sweep = preset(args.preset) if args.preset else Sweep.from_toml(args.config)
+    if settings:
+        sweep = with_engine(sweep, **settings)
     if args.cluster and args.workers != 1:
         raise UsageError("--workers applies to local runs; a cluster has its own workers")
     lines = ProgressLines(args.out) if not sys.stderr.isatty() else contextlib.nullcontext()

@@ -7,8 +7,10 @@ import math
 
 from ..errors import UsageError
 from .common import (
+    add_engine_flag,
     add_force_flag,
     emit_json,
+    engine_settings,
     image_file,
     output_files,
     parse_key_values,
@@ -36,15 +38,25 @@ def add_parser(sub) -> None:
     parser.add_argument(
         "--offset", default="0,0,0", metavar="X,Y,Z",
         help="object offset from its resting place in metres, palm frame: x along O-O', "
-        "y along the palm normal (positive toward the palm), z along the fingers",
+        "y along the palm normal (positive toward the palm), z along the fingers (default 0,0,0)",
     )  # fmt: skip
     parser.add_argument(
-        "--rotation", default="0", metavar="DEG", help="object rotation about the palm normal"
+        "--rotation", default="0", metavar="DEG",
+        help="object rotation about the palm normal in degrees, within +-90 (default 0)",
     )
-    parser.add_argument("--mode", choices=("torque", "contact"), default="torque")
-    parser.add_argument("--delta", type=float, help="joint step per control tick (rad)")
-    parser.add_argument("--thres", type=float, help="torque threshold thresT (N m)")
-    parser.add_argument("--max-time", type=float, help="simulated time limit (s)")
+    parser.add_argument(
+        "--mode", choices=("torque", "contact"), default="torque",
+        help="stop rule of a closing joint: torque (its effort over --thres) or contact (a "
+        "phalanx touches) (default torque)",
+    )  # fmt: skip
+    parser.add_argument(
+        "--delta", type=float, help="joint step per control tick in rad (default 0.006)"
+    )
+    parser.add_argument("--thres", type=float, help="torque threshold thresT in N m (default 0.35)")
+    parser.add_argument(
+        "--max-time", type=float,
+        help="simulated time limit in s, at most 60 (default 4)",
+    )
     parser.add_argument(
         "--preshape", action="store_true",
         help="start each finger where its sweep comes within 5 mm of the object (1.2x faster, "
@@ -55,11 +67,15 @@ def add_parser(sub) -> None:
         help="stop closing a finger once the dynamic detector finds it out of contact "
         "(fewer steps when a finger misses the object)",
     )  # fmt: skip
+    add_engine_flag(parser, hand_model=True)
     parser.add_argument(
         "--coupling", choices=("j2-first", "equal-torque", "distal-first"), default="j2-first",
         help="how the J1/J2 tendon shares its travel (docs/transfer.md; default j2-first)",
     )  # fmt: skip
-    parser.add_argument("--seed", type=seed_number, default=0)
+    parser.add_argument(
+        "--seed", type=seed_number, default=0,
+        help="seed stored in the record; the grasp itself is deterministic (default 0)",
+    )  # fmt: skip
     parser.add_argument("--out", help="write the GraspRecord to this .npz file")
     parser.add_argument("--snapshot", help="render the grasp to this PNG (CPU renderer)")
     parser.add_argument("--plot", help="draw FCI and signatures of the grasp to this PNG")
@@ -84,6 +100,7 @@ def _controller(args):
 
     overrides = {"mode": args.mode, "preshape": args.preshape, "early_stop": args.early_stop,
                  "coupling": args.coupling}  # fmt: skip
+    overrides.update(engine_settings(args))
     for key, value in (("delta", args.delta), ("thres_t", args.thres), ("max_time", args.max_time)):
         if value is not None:
             overrides[key] = value
@@ -116,10 +133,9 @@ def run(args: argparse.Namespace) -> int:
     shape = mesh_shape(args) or resolve_shape(args.shape)
     hook = None
     if "snapshot" in outputs:
-        from ..sim.render import snapshot
 
-        def hook(scene):
-            snapshot(scene, outputs["snapshot"])
+        def hook(engine):
+            engine.snapshot(outputs["snapshot"])
 
     record, wall = timed_grasp(
         shape, params, pose, controller, args.seed, gui=args.gui, scene_hook=hook
@@ -145,6 +161,7 @@ def run(args: argparse.Namespace) -> int:
         "params": dict(record.params),
         "pose": {"offset": list(pose.offset), "rotation_deg": math.degrees(pose.rotation)},
         "mode": controller.mode,
+        "engine": controller.engine,
         "fingers_in_contact": list(record.fingers_in_contact),
         "joint_angles": record.final_dict(),
         "sim_time_s": record.sim_time_s,

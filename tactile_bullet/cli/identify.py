@@ -7,7 +7,9 @@ import math
 
 from ..errors import UsageError
 from .common import (
+    add_engine_flag,
     emit_json,
+    engine_settings,
     parse_key_values,
     parse_number,
     parse_offset,
@@ -46,12 +48,18 @@ def add_parser(sub) -> None:
         "--param", action="append", metavar="KEY=VALUE", help="shape size in metres (repeatable)"
     )
     parser.add_argument(
-        "--offset", default="0,0,0", metavar="X,Y,Z", help="object offset in metres (palm frame)"
-    )
+        "--offset", default="0,0,0", metavar="X,Y,Z",
+        help="object offset in metres, palm frame as in grasp (default 0,0,0)",
+    )  # fmt: skip
     parser.add_argument(
-        "--rotation", default="0", metavar="DEG", help="object rotation about the palm normal"
-    )
-    parser.add_argument("--seed", type=seed_number, default=0)
+        "--rotation", default="0", metavar="DEG",
+        help="object rotation about the palm normal in degrees (default 0)",
+    )  # fmt: skip
+    parser.add_argument(
+        "--seed", type=seed_number, default=0,
+        help="seed stored in the simulated record (default 0)",
+    )  # fmt: skip
+    add_engine_flag(parser, hand_model=True)
     parser.add_argument("--json", action="store_true", help="print one JSON document")
     add_recording_options(parser)
     from .common import add_hand_calibration_flag
@@ -62,19 +70,23 @@ def add_parser(sub) -> None:
 
 def _record(args: argparse.Namespace):
     if args.record:
-        if args.param or args.offset != "0,0,0" or args.rotation != "0":
+        if args.param or args.offset != "0,0,0" or args.rotation != "0" or args.engine or (
+            args.hand_model
+        ):
             raise UsageError(
-                "--param, --offset and --rotation describe a new grasp: not with --record"
+                "--param, --offset, --rotation, --engine and --hand-model describe a new grasp: "
+                "not with --record"
             )
         from ..records import load_record
 
         return load_record(args.record)
-    from ..records import Pose
+    from ..records import ControllerSettings, Pose
     from ..sim.grasp import simulate_grasp
 
     params = {k: parse_number(v, f"--param {k}") for k, v in parse_key_values(args.param).items()}
     pose = Pose(parse_offset(args.offset), parse_rotation(args.rotation))
-    return simulate_grasp(mesh_shape(args) or args.shape, params, pose, seed=args.seed)
+    controller = ControllerSettings(**engine_settings(args))
+    return simulate_grasp(mesh_shape(args) or args.shape, params, pose, controller, seed=args.seed)
 
 
 def run(args: argparse.Namespace) -> int:

@@ -11,6 +11,9 @@ def add_parser(sub) -> None:
     parser = sub.add_parser(
         "plugins",
         help="list the plugins and the descriptors, classifiers and shapes each registered",
+        description="List the installed plugins (the built-ins and third-party packages), what "
+        "each registered (descriptors, classifiers, shapes), and any that failed to load. "
+        "TACTILE_BULLET_PLUGINS and TACTILE_BULLET_BLOCK_PLUGINS choose which load.",
     )
     parser.add_argument("--json", action="store_true", help="print one JSON document")
     parser.set_defaults(run=run)

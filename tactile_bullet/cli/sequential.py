@@ -30,7 +30,8 @@ def add_parser(sub) -> None:
     parser.add_argument("--synthetic", action="store_true", help="make_classification data")
     parser.add_argument(
         "--descriptor", default="signature+contact-normals",
-        help="unimodal (signature, raw-joints, contact-normals) or multimodal (a+b)",
+        help="unimodal (signature, raw-joints, contact-normals) or multimodal (a+b) "
+        "(default signature+contact-normals)",
     )  # fmt: skip
     parser.add_argument(
         "--descriptor-param", action="append", metavar="KEY=VALUE",
@@ -38,34 +39,48 @@ def add_parser(sub) -> None:
     )  # fmt: skip
     parser.add_argument("--timing", action="store_true", help="print cost figures only")
     parser.add_argument(
-        "--orders", type=count(1, 1000), default=10, help="random orders of the classes"
+        "--orders", type=count(1, 1000), default=10,
+        help="random orders of the classes (default 10)",
     )
     parser.add_argument(
-        "--n-updates", type=count(1, 100_000), default=300, help="updates per new forest"
+        "--n-updates", type=count(1, 100_000), default=300,
+        help="updates per new forest (default 300)",
     )
     parser.add_argument(
-        "--recalibration", type=count(0, 100_000), default=100, help="updates per old forest"
+        "--recalibration", type=count(0, 100_000), default=100,
+        help="updates per old forest (default 100)",
     )
     parser.add_argument(
-        "--memory", type=count(0, 1_000_000), default=500, help="replay memory size"
+        "--memory", type=count(0, 1_000_000), default=500,
+        help="replay memory size in samples (default 500)",
     )
     parser.add_argument(
         "--whiten", action="store_true",
         help="train the forests' splits on whitened inputs, the classifier's default (see "
         "learn/neural_forest.py); off here, where it costs the sequential figures ~2-3 points",
     )  # fmt: skip
-    parser.add_argument("--classes", type=count(2, 1000), default=7, help="--synthetic classes")
     parser.add_argument(
-        "--per-class", type=count(3, 1_000_000), default=300, help="--synthetic samples"
+        "--classes", type=count(2, 1000), default=7,
+        help="--synthetic classes (default 7)",
     )
     parser.add_argument(
-        "--features", type=count(2, 100_000), default=40, help="--synthetic features"
+        "--per-class", type=count(3, 1_000_000), default=300,
+        help="--synthetic samples per class (default 300)",
     )
-    parser.add_argument("--latency-samples", type=count(1, 100_000), default=200)
-    parser.add_argument("--seed", type=seed_number, default=0)
+    parser.add_argument(
+        "--features", type=count(2, 100_000), default=40, help="--synthetic features (default 40)"
+    )
+    parser.add_argument(
+        "--latency-samples", type=count(1, 100_000), default=200,
+        help="test rows timed one at a time for the prediction latency (default 200)",
+    )  # fmt: skip
+    parser.add_argument(
+        "--seed", type=seed_number, default=0,
+        help="seed of the split, the class orders and --synthetic data (default 0)",
+    )  # fmt: skip
     parser.add_argument(
         "--out", type=Path, default=Path("sequential_experiment"),
-        help="folder for the three figures (not with --timing)",
+        help="folder for the three figures, not with --timing (default sequential_experiment)",
     )  # fmt: skip
     add_force_flag(parser, "figures in --out")
     parser.add_argument("--json", action="store_true", help="print one JSON document")

@@ -8,7 +8,12 @@ from .common import emit_json
 
 
 def add_parser(sub) -> None:
-    parser = sub.add_parser("shapes", help="list the shapes and their size parameters")
+    parser = sub.add_parser(
+        "shapes",
+        help="list the shapes and their size parameters",
+        description="List every installed shape (built-in and plugins'), its size parameters "
+        "in metres with their valid ranges, and where identification without training holds.",
+    )
     parser.add_argument("--json", action="store_true", help="print one JSON document")
     parser.set_defaults(run=run)
 

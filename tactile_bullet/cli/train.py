@@ -18,8 +18,11 @@ def add_parser(sub) -> None:
     )
     parser.add_argument("--data", required=True, metavar="DIR", help="dataset folder or .npz")
     add_allow_partial(parser)
-    parser.add_argument("--descriptor", default="signature", help="descriptor name (a+b joins)")
-    parser.add_argument("--classifier", default="svm", help="classifier name")
+    parser.add_argument(
+        "--descriptor", default="signature",
+        help="descriptor name, a+b joins (default signature)",
+    )
+    parser.add_argument("--classifier", default="svm", help="classifier name (default svm)")
     parser.add_argument(
         "--param", action="append", metavar="KEY=VALUE", help="classifier parameter (repeatable)"
     )
@@ -31,7 +34,7 @@ def add_parser(sub) -> None:
         "--training", choices=("clean", "noise-aware", "randomized"), default="clean",
         help="clean: the grasps as they are; noise-aware: each also read through 1 deg of joint "
         "noise (for a real hand); randomized: a dataset made with the hand drawn per grasp "
-        "(generate --preset randomized), checked",
+        "(generate --preset randomized), checked (default clean)",
     )  # fmt: skip
     parser.add_argument("--out", required=True, metavar="MODEL", help="model file to write")
     add_force_flag(parser, "model file")

@@ -56,6 +56,8 @@ def verify_text(doc: dict) -> str:
     else:
         head = f"{doc['data']}: the manifest cannot be read"
     lines = [f"{head}: {'sound' if doc['ok'] else 'DAMAGED'}"]
+    if len(doc.get("engines", ())) > 1:
+        lines.append(f"  mixes physics engines: {', '.join(doc['engines'])}")
     for p in doc["problems"]:
         lost = f" ({plural(p['records'], 'record')})" if p["records"] else ""
         lines.append(f"  {p['file']}: {p['problem']}{lost}")

@@ -14,7 +14,7 @@ from pathlib import Path
 
 from ..console import plural
 from ..errors import UsageError
-from ..records import GraspRecord, Pose
+from ..records import ControllerSettings, GraspRecord, Pose
 
 # --- simulation in bulk -------------------------------------------------------------------------
 
@@ -27,6 +27,8 @@ class GraspSpec:
     params: Mapping[str, float]
     pose: Pose
     seed: int
+    controller: ControllerSettings | None = None
+    """Controller and engine (None: the defaults, the bullet engine)."""
 
 
 def _simulate(spec: GraspSpec) -> GraspRecord | str:
@@ -37,7 +39,7 @@ def _simulate(spec: GraspSpec) -> GraspRecord | str:
     # built-in shapes by value: a worker need not load every plugin to grasp a sphere
     shape = next((s for s in BUILTIN_SHAPES if s.name == spec.shape), spec.shape)
     try:
-        return simulate_grasp(shape, spec.params, spec.pose, seed=spec.seed)
+        return simulate_grasp(shape, spec.params, spec.pose, spec.controller, seed=spec.seed)
     except UsageError as exc:
         return f"{spec.shape} {dict(spec.params)} {spec.pose.offset}: {exc}"
 

@@ -165,8 +165,9 @@ class Dataset:
         }
 
 
-def load_dataset(path: str | os.PathLike, allow_partial: bool = False) -> Dataset:
-    """The dataset at ``path``; see :class:`Dataset` for ``allow_partial``."""
+def open_dataset(path: str | os.PathLike, allow_partial: bool = False) -> Dataset:
+    """The dataset at ``path`` as a :class:`Dataset` (lazy records, metadata, features); see
+    :class:`Dataset` for ``allow_partial``. ``tactile_bullet.load_dataset`` gives ``(X, y)``."""
     return Dataset(path, allow_partial)
 
 
@@ -187,7 +188,8 @@ def verify(path: str | os.PathLike) -> dict[str, Any]:
         problems = loaded.problems
         if not loaded.records and not problems:
             raise UsageError(f"{path} is neither a dataset nor a folder of grasp records")
-        doc = {"data": str(path), "kind": "records", "records": len(loaded.records)}
+        doc = {"data": str(path), "kind": "records", "records": len(loaded.records),
+               "engines": engines_of(r.controller.engine for r in loaded.records)}  # fmt: skip
         return {**doc, "ok": not problems, "problems": [p.as_dict() for p in problems]}
     try:
         dataset = Dataset(path, allow_partial=True)
@@ -197,8 +199,11 @@ def verify(path: str | os.PathLike) -> dict[str, Any]:
                 "problems": [problem.as_dict()]}  # fmt: skip
     listed = sum(e["records"] for e in dataset.shards) + dataset.skipped_records
     readable = 0
+    engines = []
     for entry in dataset.shards:
-        readable += len(dataset._decoded(entry, decode_shard_metadata))
+        metas = dataset._decoded(entry, decode_shard_metadata)
+        readable += len(metas)
+        engines += [m.get("controller", {}).get("engine", "bullet") for m in metas]
     return {
         "data": str(path),
         "kind": "dataset",
@@ -209,7 +214,14 @@ def verify(path: str | os.PathLike) -> dict[str, Any]:
         "tasks": dataset.manifest["tasks"],
         "failed": len(dataset.failed),
         "problems": [p.as_dict() for p in dataset.problems],
+        "engines": engines_of(engines),
     }
+
+
+def engines_of(names) -> list[str]:
+    """The physics engines that simulated some records, sorted: more than one means the data
+    mixes simulators (``verify`` and the reports say so)."""
+    return sorted(set(names))
 
 
 @dataclass

@@ -2,29 +2,9 @@
 
 A sweep is plain data, read from TOML or taken from a preset, and expands into a list of
 :class:`GraspTask` with one seed each. Every dimension (a size parameter, an offset
-coordinate, the rotation) is either a list of values or a ``{min, max}`` range:
-
-- ``mode = "grid"``: the product of all value lists (a range needs ``steps``: evenly spaced);
-- ``mode = "random"``: ``samples`` tasks per shape, each dimension drawn uniformly from its
-  list or range with the sweep's seeded generator.
-
-Example::
-
-    name = "my-sweep"
-    mode = "grid"
-    [controller]
-    mode = "torque"
-    [[shapes]]
-    name = "cylinder"
-    params = { radius = [0.025, 0.035, 0.045] }
-    offset_x = [-0.005, 0.0, 0.005]
-    rotation_deg = [0, 10, 20]
-
-A size parameter left out takes its default (grid) or its whole valid range (random).
-
-Mesh files join a sweep as ``[[objects]]`` tables (``file = "mug.stl"`` with optional ``name``,
-``unit``, ``scale``, ``axis``; or ``folder = "objects/"`` for every mesh file in it), with the
-same pose keys as a shape; their grasps are labelled with the object names (``objects/meshes.py``).
+coordinate, the rotation) is either a list of values or a ``{min, max}`` range, expanded as a
+grid or drawn at random. The TOML format, the presets and the limits are described for users
+in ``docs/sweeps.md``; mesh files join as ``[[objects]]`` tables (``objects/meshes.py``).
 
 A ``[randomize]`` table draws the hand and physics per grasp (friction, thresT, closing speed,
 phalanx lengths, joint reading offsets, J1/J2 coupling, contact stiffness, control rate), each
@@ -51,6 +31,7 @@ from ..records import (
     Pose,
     controller_dict,
 )
+from .sweep_engines import check_engine, merge_engine
 
 if TYPE_CHECKING:
     from ..objects.meshes import MeshSource
@@ -67,7 +48,7 @@ such as ``samples = 1000000000`` or a grid of 1e12 points is refused before anyt
 allocated (:meth:`Sweep.size`). Split larger collections into several datasets."""
 
 SHAPE_KEYS = ("name", "params", "offset_x", "offset_y", "offset_z", "rotation_deg", "samples")
-SWEEP_KEYS = ("name", "mode", "samples", "controller", "shapes", "objects", "randomize")
+SWEEP_KEYS = ("name", "mode", "samples", "controller", "shapes", "objects", "randomize", "engine")
 POSE_KEYS = ("offset_x", "offset_y", "offset_z", "rotation_deg", "samples")
 
 
@@ -140,15 +121,14 @@ class Sweep:
         if mode not in ("grid", "random"):
             raise UsageError(f"{source}: mode must be 'grid' or 'random', got {mode!r}")
         samples = _positive_int(data.get("samples", 10), f"{source}: samples")
-        controller_data = data.get("controller", {})
-        if not isinstance(controller_data, Mapping):
-            raise UsageError(f"{source}: [controller] must be a table")
+        controller_data = merge_engine(data, data.get("controller", {}), source)
         known = {f.name for f in fields(ControllerSettings)}
         _no_unknown(controller_data, tuple(known), f"{source}: [controller]")
         try:
             controller = ControllerSettings(**controller_data)
         except (TypeError, ValueError) as exc:  # UsageError is a ValueError
             raise UsageError(f"{source}: [controller] {exc}") from None
+        check_engine(controller, source)
         randomize = None
         if "randomize" in data:
             from .randomize import Randomization

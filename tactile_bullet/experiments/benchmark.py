@@ -158,9 +158,9 @@ def _complete(path: Path, spec: P.SetSpec) -> bool:
 
 def load_set(path: str | os.PathLike) -> tuple[list[GraspRecord], int]:
     """Usable records of a set (with their series) and how many grasps touched nothing."""
-    from ..datasets.dataset import load_dataset
+    from ..datasets.dataset import open_dataset
 
-    records = list(load_dataset(path).records(full=True))
+    records = list(open_dataset(path).records(full=True))
     kept = [r for r in records if "no_contact" not in r.flags]
     return kept, len(records) - len(kept)
 
@@ -183,9 +183,11 @@ def run_benchmark(
     cache: str | os.PathLike | None = None,
     show: bool = False,
     log: Callable[[str], None] | None = None,
+    engine: str = "bullet",
 ) -> dict[str, Any]:
     """Run the benchmark (module doc); returns the ``benchmark.json`` document. ``quick``:
-    True/False (the --quick flag) or a scale name of ``protocols.SCALES``."""
+    True/False (the --quick flag) or a scale name of ``protocols.SCALES``; ``engine`` simulates
+    the single-engine protocols' sets (the cross-engine ones use both)."""
     from ..learn.doubt import calibrate_margin, cross_check_names
     from ..learn.robust import augment
     from ..plugins import compatible, get_classifier, get_descriptor
@@ -207,10 +209,10 @@ def run_benchmark(
     config = {
         "protocols": names, "descriptors": descriptors, "classifiers": classifiers,
         "trainings": trainings, "scale": scale, "seed": int(seed),
-    }  # fmt: skip
+    } | ({"engine": engine} if engine != "bullet" else {})  # fmt: skip
     prepare_out(out, config)
-    table = P.protocols(scale)
-    specs = P.needed_sets(names, scale, trainings)
+    table = P.protocols(scale, engine)
+    specs = P.needed_sets(names, scale, trainings, engine)
     simulate_sets(specs, cache_dir, int(workers), show, say)
 
     sets: dict[str, list[GraspRecord]] = {}
@@ -227,9 +229,10 @@ def run_benchmark(
     def train_features(train_set: str, training: str, desc: str) -> tuple[np.ndarray, np.ndarray]:
         key = (train_set, training, desc)
         if key not in features:
-            records = sets[train_set]
+            parts = P.train_sets(train_set)
             if training == "randomized":
-                records = sets[P.randomized_name(train_set)]
+                parts = [P.randomized_name(name) for name in parts]
+            records = [r for name in parts for r in sets[name]]
             if training == "noise-aware":
                 records = augment(records, seed=seed)
             features[key] = np.asarray(descs[desc].transform(records), float)
@@ -253,13 +256,14 @@ def run_benchmark(
                 if not compatible(desc, clf):
                     continue
                 for training in trainings:
-                    key = (protocol.train, training, desc, clf)
+                    train_set = level.train or protocol.train
+                    key = (train_set, training, desc, clf)
                     if key not in fitted:
-                        x, y = train_features(protocol.train, training, desc)
+                        x, y = train_features(train_set, training, desc)
                         fitted[key] = get_classifier(clf).fit(x, y)
                         thresholds[key] = calibrate_margin(
                             lambda c=clf: get_classifier(c), x, y, seed=seed,
-                            records=kept_records[(protocol.train, training, desc)],
+                            records=kept_records[(train_set, training, desc)],
                             classifier=clf,
                         )  # fmt: skip
                     accuracy, doubt = None, None

@@ -25,6 +25,14 @@ Each protocol's training set also exists randomised (:func:`randomized_name`: th
 with ``datasets.randomize.RANDOMIZED_TABLE`` drawn per grasp), read by the benchmark's
 ``randomized`` training.
 
+Two more compare physics engines (``sim/engines/``) and run only when named (``all`` keeps to
+the five above, which need no optional package):
+
+- ``cross-engine``: train on one engine, test on the other, both ways: ``bullet->mujoco`` (the
+  headline) and ``mujoco->bullet``. The two engines' sets share their draws (same seeds), so
+  they are the same grasps simulated twice;
+- ``mixed-engine``: train on both engines' training sets together, test on each engine's.
+
 A protocol names datasets (:class:`SetSpec`: a random-mode sweep and a seed) rather than holding
 records, so the benchmark simulates each set once through the dataset layer (sharded, resumable)
 and every protocol sharing it reads the same grasps. ``quick`` recipes simulate ~200 grasps in
@@ -120,6 +128,8 @@ class Level:
     headline: bool = False
     series: str | None = None
     """Which curve of the protocol's figure the level belongs to (None: on none)."""
+    train: str | None = None
+    """The training set of this level when it is not the protocol's (cross-engine's reverse)."""
 
 
 @dataclass(frozen=True)
@@ -163,14 +173,38 @@ def scale_of(quick: bool | str) -> str:
     return "quick" if quick else "full"
 
 
-def sets(quick: bool | str = False) -> dict[str, SetSpec]:
-    """Every set the protocols read, by name (each scale's names are distinct, so all can
-    share one cache folder)."""
+ENGINES: tuple[str, ...] = ("bullet", "mujoco")
+"""The engines the cross-engine and mixed-engine protocols compare."""
+
+
+def set_tag(scale: str, engine: str = "bullet") -> str:
+    """The prefix of a set's name: its scale (none for full) and engine (none for bullet), so
+    every scale and engine can share one cache folder."""
+    return ("" if scale == "full" else f"{scale}-") + ("" if engine == "bullet" else f"{engine}-")
+
+
+def train_sets(train: str) -> list[str]:
+    """The sets a training name joins ('a+b': both, in order)."""
+    return train.split("+")
+
+
+def sets(quick: bool | str = False, engine: str = "bullet") -> dict[str, SetSpec]:
+    """Every set the protocols read, by name, simulated with ``engine`` (each scale's and
+    engine's names are distinct, so all can share one cache folder); plus every engine's
+    demo sets, which the cross-engine protocols read."""
     scale = scale_of(quick)
+    out = _sets(scale, engine)
+    for other in ENGINES:
+        if other != engine:
+            out += [s for s in _sets(scale, other) if "demo-" in s.name]
+    return {s.name: s for s in out}
+
+
+def _sets(scale: str, engine: str) -> list[SetSpec]:
     n_train, n_test, n_shift = SCALES[scale]
-    tag = "" if scale == "full" else f"{scale}-"
+    tag = set_tag(scale, engine)
     quick = scale != "full"
-    base = ControllerSettings()
+    base = ControllerSettings(engine=engine)
     out: list[SetSpec] = [
         SetSpec(f"{tag}demo-train", n_train, TRAIN_FRACTIONS, TRAIN_X, TRAIN_Z, seed=1),
         SetSpec(f"{tag}demo-test", n_test, TEST_FRACTIONS, TEST_X, TEST_Z, seed=2),
@@ -207,9 +241,9 @@ def sets(quick: bool | str = False) -> dict[str, SetSpec]:
             "phalanx-1.03": replace(base, phalanx_scale=1.03),
         }
         for label, ctl in knobs.items():
-            out.append(SetSpec(f"shift-{label}", n_shift, TEST_FRACTIONS, TEST_X, TEST_Z,
+            out.append(SetSpec(f"{tag}shift-{label}", n_shift, TEST_FRACTIONS, TEST_X, TEST_Z,
                                controller=ctl, seed=8))  # fmt: skip
-    return {s.name: s for s in out}
+    return [replace(s, controller=replace(s.controller, engine=engine)) for s in out]
 
 
 COUPLING_SHIFTS: tuple[str, ...] = ("equal-torque", "distal-first")
@@ -242,10 +276,11 @@ QUICK_NOISE = ("sigma 1 deg", "bias 3 deg", "sigma 1 deg + bias 3 deg")
 TINY_NOISE = ("sigma 1 deg + bias 3 deg",)
 
 
-def protocols(quick: bool | str = False) -> dict[str, Protocol]:
-    """The five protocols, by name, at a scale (``quick`` True/False or a scale name)."""
+def protocols(quick: bool | str = False, engine: str = "bullet") -> dict[str, Protocol]:
+    """The protocols, by name, at a scale (``quick`` True/False or a scale name), the five
+    single-engine ones on ``engine``'s sets."""
     scale = scale_of(quick)
-    tag = "" if scale == "full" else f"{scale}-"
+    tag = set_tag(scale, engine)
     quick = scale != "full"
     kept = TINY_NOISE if scale == "tiny" else QUICK_NOISE
     test = f"{tag}demo-test"
@@ -310,17 +345,44 @@ def protocols(quick: bool | str = False) -> dict[str, Protocol]:
                 for rule in COUPLING_SHIFTS
             ),
         ),
+    } | _engine_protocols(scale)
+
+
+def _engine_protocols(scale: str) -> dict[str, Protocol]:
+    bullet, mujoco = set_tag(scale, "bullet"), set_tag(scale, "mujoco")
+    return {
+        "cross-engine": Protocol(
+            "cross-engine",
+            "train on one engine's demo-train grasps, test on the other engine's demo-test",
+            f"{bullet}demo-train",
+            (
+                Level("bullet->mujoco", (f"{mujoco}demo-test",), headline=True),
+                Level("mujoco->bullet", (f"{bullet}demo-test",), train=f"{mujoco}demo-train"),
+            ),
+        ),
+        "mixed-engine": Protocol(
+            "mixed-engine",
+            "train on both engines' demo-train grasps, test on each engine's demo-test",
+            f"{bullet}demo-train+{mujoco}demo-train",
+            (
+                Level("bullet", (f"{bullet}demo-test",)),
+                Level("mujoco", (f"{mujoco}demo-test",), headline=True),
+            ),
+        ),
     }
 
 
 PROTOCOL_NAMES: tuple[str, ...] = tuple(protocols())
+ENGINE_PROTOCOLS: tuple[str, ...] = ("cross-engine", "mixed-engine")
+DEFAULT_PROTOCOLS: tuple[str, ...] = tuple(n for n in PROTOCOL_NAMES if n not in ENGINE_PROTOCOLS)
+"""What ``all`` runs: the protocols that need no optional package."""
 
 
 def resolve(names: str | Sequence[str] | None) -> list[str]:
     """'all', a comma list or a sequence -> protocol names in canonical order; a UsageError
     naming the unknown one otherwise."""
     if names is None or names == "all" or list(names) == ["all"]:
-        return list(PROTOCOL_NAMES)
+        return list(DEFAULT_PROTOCOLS)
     items = names.split(",") if isinstance(names, str) else list(names)
     items = [n.strip() for n in items if n.strip()]
     if not items:
@@ -328,23 +390,31 @@ def resolve(names: str | Sequence[str] | None) -> list[str]:
     for n in items:
         if n not in PROTOCOL_NAMES:
             raise UsageError(
-                f"unknown protocol {n!r} (known: {', '.join(PROTOCOL_NAMES)}, or 'all')"
+                f"unknown protocol {n!r} (known: {', '.join(PROTOCOL_NAMES)}, or 'all' for "
+                f"{', '.join(DEFAULT_PROTOCOLS)})"
             )
     return [n for n in PROTOCOL_NAMES if n in items]
 
 
 def needed_sets(
-    names: Sequence[str], quick: bool | str = False, trainings: Sequence[str] = ()
+    names: Sequence[str],
+    quick: bool | str = False,
+    trainings: Sequence[str] = (),
+    engine: str = "bullet",
 ) -> list[SetSpec]:
     """The sets the named protocols read, each once, in a fixed order (with the randomised
-    training sets where ``trainings`` holds "randomized")."""
-    table = protocols(quick)
+    training sets where ``trainings`` holds "randomized"), the single-engine ones simulated
+    with ``engine``."""
+    table = protocols(quick, engine)
     wanted: list[str] = []
     for name in names:
         p = table[name]
-        train = (p.train, randomized_name(p.train)) if "randomized" in trainings else (p.train,)
-        for set_name in (*train, *(t for level in p.levels for t in level.test)):
+        trains = [t for tr in [p.train] + [lv.train for lv in p.levels if lv.train]
+                  for t in train_sets(tr)]  # fmt: skip
+        if "randomized" in trainings:
+            trains += [randomized_name(t) for t in trains]
+        for set_name in (*trains, *(t for level in p.levels for t in level.test)):
             if set_name not in wanted:
                 wanted.append(set_name)
-    all_sets = sets(quick)
+    all_sets = sets(quick, engine)
     return [all_sets[n] for n in wanted]

@@ -1,5 +1,8 @@
 """The user's workflow on top of the registry: train, evaluate, compare, identify, demo.
 
+Longer than 600 lines because it is the whole path the CLI runs, kept in one module so each
+subcommand stays a thin layer and a script finds every step in one place.
+
 Every function takes and returns plain objects (records, models, JSON-ready dicts) so the CLI
 is a thin layer over them and scripts can call them directly. Descriptors and classifiers are
 looked up by name in the plugin registry, so a third-party plugin joins every step for free.
@@ -19,7 +22,7 @@ import numpy as np
 from ..console import plural
 from ..datasets.bulk import GraspSpec, check_record_folder, save_records, simulate_many
 from ..errors import UsageError
-from ..records import GraspRecord, Pose
+from ..records import ControllerSettings, GraspRecord, Pose
 
 DEMO_SHAPES: tuple[str, ...] = ("cone", "torus", "sphere", "hyperboloid", "cylinder")
 """The thesis' five test shapes."""
@@ -210,6 +213,9 @@ def evaluate(model, records: Iterable[GraspRecord]) -> dict[str, Any]:
     # nothing carries no shape, and `identify` names none
     doc["no_contact"] = sum(nothing_to_identify(r) is not None for r in records)
     doc["model"] = describe_model(model)
+    engines = sorted({r.controller.engine for r in records if r.source == "simulated"})
+    if engines and engines != ["bullet"]:  # another engine, or a mix: the report says so
+        doc["engines"] = engines
     return doc
 
 
@@ -317,6 +323,7 @@ def compare(
                 "train_records": len(train_records),
                 "test_records": len(test_records),
             }
+            row["ambiguous"] = None
             if doubt:
                 trained, tested = (x_train, y_train, train_records), (x_test, y_test, test_records)
                 row["ambiguous"] = pair_doubt(name, estimator, trained, tested, seconds)
@@ -347,6 +354,7 @@ def _skipped_row(descriptor, classifier, reason, train_records, test_records) ->
         "train_records": len(train_records),
         "test_records": len(test_records),
         "skipped": reason,
+        "ambiguous": None,
     }
 
 
@@ -395,6 +403,7 @@ def draw_specs(
     fractions: Sequence[float],
     offsets: Sequence[tuple[float, float, float]],
     rng: np.random.Generator,
+    controller: ControllerSettings | None = None,
 ) -> list[GraspSpec]:
     """``n`` grasps of a built-in shape, each parameter at a relative size drawn from
     ``fractions`` of its valid range, at an offset drawn from ``offsets``; combinations the
@@ -417,7 +426,7 @@ def draw_specs(
         else:  # pragma: no cover - every built-in shape has valid combinations
             raise UsageError(f"no valid size of {shape} among the demo's fractions")
         offset = offsets[int(rng.integers(len(offsets)))]
-        out.append(GraspSpec(shape, values, Pose(offset), int(rng.integers(2**31 - 1))))
+        out.append(GraspSpec(shape, values, Pose(offset), int(rng.integers(2**31 - 1)), controller))
     return out
 
 
@@ -442,6 +451,7 @@ def simulate_set(
     desc: str = "grasps",
     shapes: Sequence[str] = DEMO_SHAPES,
     rounds: int = 3,
+    controller: ControllerSettings | None = None,
 ) -> SimulatedSet:
     """``per_shape`` usable grasps of each shape where possible: a refused pose or a grasp
     without contact is replaced by a fresh draw, for up to ``rounds`` rounds, so every shape
@@ -452,7 +462,9 @@ def simulate_set(
     no_contact = 0
     for _ in range(rounds):
         specs = [
-            s for name, n in wanted.items() for s in draw_specs(name, n, fractions, offsets, rng)
+            s
+            for name, n in wanted.items()
+            for s in draw_specs(name, n, fractions, offsets, rng, controller)
         ]
         if not specs:
             break
@@ -477,6 +489,7 @@ def demo(
     show: bool = False,
     log: Callable[[str], None] | None = None,
     force: bool = False,
+    engine: str = "bullet",
 ) -> dict[str, Any]:
     """The first thing to run: simulate a training set and a held-out test set of the five
     thesis shapes (test sizes and offsets never seen in training), train signature + SVM,
@@ -514,13 +527,16 @@ def demo(
     rng = np.random.default_rng(seed)
     say(f"simulating {len(DEMO_SHAPES) * train_per_shape} training grasps "
         f"({plural(workers, 'worker')})")
+    ctl = ControllerSettings(engine=engine)
     train_set = simulate_set(
-        train_per_shape, TRAIN_FRACTIONS, TRAIN_OFFSETS, rng, workers, show, "train grasps"
-    )
+        train_per_shape, TRAIN_FRACTIONS, TRAIN_OFFSETS, rng, workers, show, "train grasps",
+        controller=ctl,
+    )  # fmt: skip
     say(f"simulated {len(train_set.records)} training grasps; now the test set at unseen sizes")
     test_set = simulate_set(
-        test_per_shape, TEST_FRACTIONS, TEST_OFFSETS, rng, workers, show, "test grasps"
-    )
+        test_per_shape, TEST_FRACTIONS, TEST_OFFSETS, rng, workers, show, "test grasps",
+        controller=ctl,
+    )  # fmt: skip
     train_records, test_records = train_set.records, test_set.records
     sim_time = time.perf_counter() - started
     if len({r.shape for r in train_records}) < 2 or not test_records:

@@ -12,11 +12,11 @@ the fitted sizes, which the DTW matcher cannot.
 The forward model (what Algorithm 1's joints end at on a known object) and its calibration
 live in :mod:`~tactile_bullet.perception.shape_model`.
 
-Identification: for each family, a precomputed grid of sizes x offsets (predicted angles cached
-at first use: about a second), then, for the families whose grid score is near the best, a
-batched pattern search around the best grid point and a few damped Gauss-Newton steps. The
-score is the robust (soft-L1) sum of weighted residuals plus a penalty per size parameter; the
-lowest score wins.
+Identification: for each family, a precomputed grid of sizes x offsets (predicted angles
+computed once and kept on disk by :mod:`~tactile_bullet.perception.grid_cache`), then, for
+the families whose grid score is near the best, a batched pattern search around the best grid
+point and a few damped Gauss-Newton steps. The score is the robust (soft-L1) sum of weighted
+residuals plus a penalty per size parameter; the lowest score wins.
 """
 
 from __future__ import annotations
@@ -30,6 +30,7 @@ import numpy as np
 
 from ..errors import UsageError
 from ..objects.shapes import BUILTIN_SHAPES, THESIS_SHAPES, Shape, check_consistent
+from .grid_cache import grid_geometry
 from .shape_model import (
     Calibration,
     _chain_features,
@@ -185,12 +186,14 @@ class _Family:
         self.rotation_groups = [
             np.flatnonzero(self.grid[:, -1] == v) for v in np.unique(self.grid[:, -1])
         ]
-        self.grid_geometry = np.concatenate(
-            [self.geometry(self.grid[i : i + _GRID_CHUNK])
-             for i in range(0, len(self.grid), _GRID_CHUNK)]
-        )  # fmt: skip
+        self.grid_geometry = grid_geometry(shape.name, self.grid, self._grid_geometry)
         self._cal: Calibration | None = None
         self._pred = self.grid_geometry[..., :2, :]
+
+    def _grid_geometry(self, grid: np.ndarray) -> np.ndarray:
+        return np.concatenate(
+            [self.geometry(grid[i : i + _GRID_CHUNK]) for i in range(0, len(grid), _GRID_CHUNK)]
+        )
 
     def starts(self, cost: np.ndarray) -> np.ndarray:
         """Grid indices the search starts from: the best point of each grid rotation, the

@@ -8,15 +8,19 @@ Per finger (ff, mf, rf, lf), independently and all at once:
 2. stage J0: raise the coupled J0 = J1 + J2 the same way until the distal joint J1 reports the
    effort (or the distal phalanx the contact), or J0 reaches pi.
 
-The J1/J2 tendon is modelled in the controller (PyBullet ignores URDF transmissions): J0's
-increments go to J2 first, as on the real hand where the middle phalanx leads; once J2 is
-blocked (its effort over the threshold, or its limit) the tendon's further travel goes to J1.
-That is the default ``ControllerSettings.coupling``; ``sim/coupling.py`` holds it and the other
-rules (equal torque, distal first). A joint that stops holds the angle it was measured at
-(position control, J3 at the sheet's 2 N m, the J0 tendon at 1 N m). Before the fingers move,
-the thumb is brought to opposition, stopping where it meets the object, and held there. The
-grasp ends when every finger is done (or at ``max_time``, flagged ``did_not_settle``); the hand
-then holds its targets ``settle_steps`` steps and the final state is read.
+Written once over the engine interface (``sim/engines/base.py``): only stepping and reading
+differ between engines. On ``bullet`` the J1/J2 tendon is modelled in the controller (PyBullet
+ignores URDF transmissions) by the rule of ``sim/coupling.py``: J0's increments go to J2
+first, as on the real hand where the middle phalanx leads; once J2 is blocked (its effort over
+the threshold, or its limit) the tendon's further travel goes to J1. That is the default
+``ControllerSettings.coupling``; ``sim/coupling.py`` holds it and the other rules (equal
+torque, distal first). On ``mujoco`` a fixed tendon on one actuator splits J0 physically: the
+controller only sends the sum, and the rule decides when the finger is done. A joint
+that stops holds the angle it was measured at (position control, J3 at the sheet's 2 N m, the
+J0 tendon at 1 N m). Before the fingers move, the thumb is brought to opposition,
+stopping where it meets the object, and held there. The grasp ends when every finger is done
+(or at ``max_time``, flagged ``did_not_settle``); the hand then holds its targets
+``settle_steps`` steps and the final state is read.
 """
 
 from __future__ import annotations
@@ -40,7 +44,7 @@ from ..hand import (
 from ..objects.shapes import Shape
 from ..records import ControllerSettings, GraspRecord, Pose
 from .coupling import Tendon, advance
-from .scene import Scene
+from .engines.base import Engine
 
 J3, J0 = 0, 1
 DONE = 2
@@ -66,19 +70,14 @@ class _Finger:
     __slots__ = ("name", "j3", "j2", "j1", "stage", "t3", "t2", "t1", "j2_free", "j1_free",
                  "links")  # fmt: skip
 
-    def __init__(self, name: str, scene: Scene) -> None:
+    def __init__(self, name: str) -> None:
         up = name.upper()
         self.name = name
         self.j3, self.j2, self.j1 = (JOINT_NAMES.index(f"{up}J{k}") for k in (3, 2, 1))
         self.stage = J3
         self.t3 = self.t2 = self.t1 = 0.0
         self.j2_free = self.j1_free = True
-        ids = scene.link_index
-        self.links = (
-            ids[f"{name}proximal"],
-            ids[f"{name}middle"],
-            {ids[f"{name}distal"]},
-        )
+        self.links = (f"{name}proximal", f"{name}middle", {f"{name}distal"})
 
 
 def simulate_grasp(
@@ -96,30 +95,30 @@ def simulate_grasp(
     ``shape`` is a registered name (or a Shape); ``params`` its sizes in metres (defaults filled
     in and range-checked); ``pose`` the object's offset and rotation; ``seed`` is stored in the
     record (the grasp itself is deterministic: the same inputs give a bit-identical record).
-    ``scene_hook(scene)`` is called after the grasp, before the client closes (snapshots).
+    ``controller.engine`` picks the physics engine (``bullet`` unless told otherwise).
+    ``scene_hook(engine)`` is called after the grasp, before the engine closes (snapshots).
     """
+    from ..plugins import get_engine
+
+    ctl = controller or ControllerSettings()
+    factory = get_engine(ctl.engine)
     spec = shape if isinstance(shape, Shape) else resolve_shape(shape)
     values = spec.resolve(params)
     pose = pose or Pose()
-    ctl = controller or ControllerSettings()
-    scene = Scene(
-        spec, values, pose, timestep=ctl.timestep, gui=gui, visual=scene_hook is not None,
-        friction=ctl.friction, phalanx_scale=ctl.phalanx_scale,
-        contact_stiffness=ctl.contact_stiffness,
-    )  # fmt: skip
+    engine = factory(spec, values, pose, ctl, gui=gui, visual=scene_hook is not None)
     try:
-        record = _run(scene, spec, values, pose, ctl, int(seed), scene_hook)
+        record = _run(engine, spec, values, pose, ctl, int(seed), scene_hook)
     finally:
-        scene.close()
+        engine.close()
     if ctl.joint_offsets:
         record = offset_readings(record, ctl.joint_offsets)
     identity = getattr(spec, "identity", None)  # a mesh file's (meshes.MeshShape)
     return dataclasses.replace(record, mesh=identity) if identity else record
 
 
-def _run(scene, spec, values, pose, ctl, seed, scene_hook) -> GraspRecord:
+def _run(engine, spec, values, pose, ctl, seed, scene_hook) -> GraspRecord:
     """Algorithm 1 in its phases: thumb to opposition, the four fingers, settle, record."""
-    run = _GraspRun(scene, spec, ctl)
+    run = _GraspRun(engine, spec, ctl)
     run.thumb_phase()
     run.finger_phase()
     run.settle()
@@ -130,28 +129,22 @@ class _GraspRun:
     """One grasp's controller state, shared by its phases.
 
     Arrays are indexed by record column (JOINT_NAMES order); ``movable`` are the columns of
-    joints the simulator has (the wrist is welded, see scene.FIXED_JOINTS) and ``ids[col]``
-    PyBullet's index of a column's joint. Every physics step goes through :meth:`step`, which
-    samples the joint states at ``sample_rate``."""
+    joints the engine has (the wrist is welded). Every controller tick goes through
+    :meth:`step`, which samples the joint states at ``sample_rate``."""
 
-    def __init__(self, scene: Scene, spec: Shape, ctl: ControllerSettings) -> None:
-        import pybullet as p
-
-        self.scene, self.ctl, self.position_control = scene, ctl, p.POSITION_CONTROL
+    def __init__(self, engine: Engine, spec: Shape, ctl: ControllerSettings) -> None:
+        self.engine, self.ctl = engine, ctl
         self.shape = spec.name
-        self.c, self.hand = scene.client, scene.hand
-        scene.reset_hand()
-        overlap = scene.penetrations(PENETRATION_TOLERANCE)
+        n = self.n = len(JOINT_NAMES)
+        self.movable = np.array(engine.columns)
+        engine.reset_joints(self.movable, [0.0] * len(self.movable))
+        overlap = engine.penetrations(PENETRATION_TOLERANCE)
         if overlap:
             link, depth = min(overlap, key=lambda t: t[1])
             raise UsageError(
                 f"pose puts the {spec.name} inside the open hand ({link} overlaps it by "
                 f"{-depth * 1000:.1f} mm): move it away from the palm (--offset y < 0) or shrink it"
             )
-        n = self.n = len(JOINT_NAMES)
-        self.joints, self.movable = scene.joints, scene.columns
-        self.ids = np.full(n, -1)
-        self.ids[self.movable] = self.joints
         self.targets = np.zeros(n)
         self.forces = np.full(n, ctl.motor_force)
         # The proximal joint gets the sheet's 2 N m: it must hold while the coupled J0 (the
@@ -159,9 +152,8 @@ class _GraspRun:
         # whose reaction acts on J3 through a longer lever. At 1 N m it was pushed back 0.4 rad.
         j3s = [JOINT_NAMES.index(f"{f.upper()}J3") for f in LONG_FINGERS]
         self.forces[j3s] = 2.0 * ctl.motor_force
-        self.damping = np.zeros(n)
-        self.damping[self.movable] = [self.c.getJointInfo(self.hand, j)[6] for j in self.joints]
-        self.fingers = [_Finger(f, scene) for f in LONG_FINGERS]
+        self.damping = engine.damping
+        self.fingers = [_Finger(f) for f in LONG_FINGERS]
         self.torque_mode = ctl.mode == "torque"
         self.sample_every = max(1, round(1.0 / (ctl.sample_rate * ctl.timestep)))
         self.max_steps = int(math.ceil(ctl.max_time / ctl.timestep))
@@ -172,45 +164,40 @@ class _GraspRun:
         self.steps = 0
         self.filtered = np.zeros(n)
         self.smooth = ctl.timestep / (EFFORT_FILTER_S + ctl.timestep)
-        self.send(self.joints, self.movable)
+        self.send(self.movable)
         self.sample()
 
     # --- plumbing -------------------------------------------------------------------------
 
-    def send(self, joint_ids, cols) -> None:
-        """Position targets and forces of ``cols`` to the motors of ``joint_ids``."""
-        self.c.setJointMotorControlArray(
-            self.hand, joint_ids, self.position_control,
-            targetPositions=self.targets[cols].tolist(), forces=self.forces[cols].tolist(),
-        )  # fmt: skip
+    def send(self, cols) -> None:
+        """Position targets and forces of ``cols`` to their motors."""
+        self.engine.set_targets(cols, self.targets[cols], self.forces[cols])
 
     def sample(self) -> None:
-        states = self.c.getJointStates(self.hand, self.joints)
+        pos, _, eff = self.engine.read(self.movable)
         angles, efforts = np.zeros(self.n), np.zeros(self.n)
-        angles[self.movable] = [s[0] for s in states]
-        efforts[self.movable] = [s[3] for s in states]
+        angles[self.movable] = pos
+        efforts[self.movable] = eff
         self.angle_rows.append(angles)
         self.effort_rows.append(efforts)
         self.times.append(self.steps * self.ctl.timestep)
 
     def step(self) -> bool:
-        """One physics step; True when it took a sample."""
-        self.c.stepSimulation()
+        """One controller tick; True when it took a sample."""
+        self.engine.step()
         self.steps += 1
         if self.steps % self.sample_every == 0:
             self.sample()
             return True
         return False
 
-    def external(self, states, idx):
+    def external(self, vel, eff, idx):
         """Low-passed |motor torque - the joint's own viscous damping|: the torque the joint
         spends on something other than moving itself, i.e. on the object, as a real hand's
         compensated torque sensing reports it. Without the damping term a joint closing at
         2.4 rad/s reads 0.24 N m; without the filter the jolt of a contact on one phalanx
         trips the joints downstream of it."""
-        raw = np.array(
-            [abs(s[3] - self.damping[i] * s[1]) for s, i in zip(states, idx, strict=True)]
-        )
+        raw = np.abs(eff - self.damping[idx] * vel)
         self.filtered[idx] += self.smooth * (raw - self.filtered[idx])
         return self.filtered[idx].tolist()
 
@@ -220,47 +207,41 @@ class _GraspRun:
         """Thumb to opposition, stopping on the object if it meets it first.
 
         The object is static, so the free part of the thumb's sweep is skipped: it starts from
-        the last pose of its path that keeps SWEEP_CLEARANCE from the object (the long fingers'
-        final angles are unchanged by this, to 0.005 deg). With ``preshape`` each finger's J3
+        the last pose of its path that keeps 5 mm from the object (the long fingers' final
+        angles are unchanged by this, to 0.005 deg). With ``preshape`` each finger's J3
         starts the same way."""
-        ctl, scene, targets, ids = self.ctl, self.scene, self.targets, self.ids
-        thumb = [JOINT_NAMES.index(nm) for nm in THUMB_OPPOSED]
-        thumb_ids = ids[thumb].tolist()
+        ctl, engine, targets = self.ctl, self.engine, self.targets
+        thumb = np.array([JOINT_NAMES.index(nm) for nm in THUMB_OPPOSED])
         goal = np.array(list(THUMB_OPPOSED.values()))
         self.forces[thumb] = (5.0, 3.0, 2.0, 2.0, 1.0)
         n_thumb = int(math.ceil(np.abs(goal).max() / (THUMB_SPEED_RATIO * ctl.delta)))
-        links = scene.finger_link_ids
-        first = int(math.floor(sweep_clear_fraction(scene, thumb_ids, goal, links["th"]) * n_thumb))
+        first = int(math.floor(engine.sweep_clear_fraction(thumb, goal, "th") * n_thumb))
         targets[thumb] = goal * (first / n_thumb)
-        moved = list(thumb)
+        moved = thumb.tolist()
         if ctl.preshape:
             for f in self.fingers:
-                j3 = int(ids[f.j3])
-                top = np.array([scene.upper[f.j3]])
-                f.t3 = targets[f.j3] = (
-                    sweep_clear_fraction(scene, [j3], top, links[f.name]) * top[0]
-                )
+                top = np.array([engine.upper[f.j3]])
+                f.t3 = targets[f.j3] = engine.sweep_clear_fraction([f.j3], top, f.name) * top[0]
                 moved.append(f.j3)
         if first or ctl.preshape:
-            for col in moved:
-                self.c.resetJointState(self.hand, int(ids[col]), float(targets[col]), 0.0)
-            self.send(self.joints, self.movable)
+            engine.reset_joints(moved, targets[moved].tolist())
+            self.send(self.movable)
             self.angle_rows.clear()
             self.effort_rows.clear()
             self.times.clear()
             self.sample()
-        thumb_link_ids = set(links["th"])
+        thumb_links = set(FINGER_LINKS["th"])
         for k in range(first + 1, n_thumb + 1):
-            states = self.c.getJointStates(self.hand, thumb_ids)
+            pos, vel, eff = engine.read(thumb)
             if self.torque_mode:
-                stop = max(self.external(states, thumb)) > ctl.thres_t
+                stop = max(self.external(vel, eff, thumb)) > ctl.thres_t
             else:
-                stop = bool(thumb_link_ids & scene.touching_links())
+                stop = bool(thumb_links & engine.touching())
             if stop:
-                targets[thumb] = [s[0] for s in states]
+                targets[thumb] = pos
             else:
                 targets[thumb] = goal * (k / n_thumb)
-            self.send(thumb_ids, thumb)
+            self.send(thumb)
             self.step()
             if stop:
                 break
@@ -275,36 +256,36 @@ class _GraspRun:
         running on to its joint limits. Fingers it finds settled are left to Algorithm 1: a
         stall of 0.1 s is often a pause in the adaptation, and stopping there moved final
         angles by 18 deg (median over 32 thesis-preset grasps) for 5% fewer steps."""
-        ctl = self.ctl
-        watch = [j for f in self.fingers for j in (f.j3, f.j2, f.j1)]
-        watch_ids = self.ids[watch].tolist()
+        ctl, engine = self.ctl, self.engine
+        watch = np.array([j for f in self.fingers for j in (f.j3, f.j2, f.j1)])
         detector = _early_stop_detector(self) if ctl.early_stop else None
         while True:
             if self.steps % ctl.control_every == 0:
-                states = self.c.getJointStates(self.hand, watch_ids)
-                eff = self.external(states, watch)
-                links = None if self.torque_mode else self.scene.touching_links()
+                pos, vel, eff_raw = engine.read(watch)
+                eff = self.external(vel, eff_raw, watch)
+                links = None if self.torque_mode else engine.touching()
                 active = False
                 for k, f in enumerate(self.fingers):
                     if f.stage == DONE:
                         continue
                     active = True
+                    q = pos[3 * k : 3 * k + 3]
                     if detector is not None and detector.non_contact[k]:
-                        self.stop_finger(f, states[3 * k : 3 * k + 3])
+                        self.stop_finger(f, q)
                         continue
-                    self.finger_tick(f, eff[3 * k : 3 * k + 3], states[3 * k : 3 * k + 3], links)
+                    self.finger_tick(f, eff[3 * k : 3 * k + 3], q, links)
                 if not active:
                     break
-                self.send(watch_ids, watch)
+                self.send(watch)
             if self.steps >= self.max_steps:
                 self.flags.append("did_not_settle")
                 break
             if self.step() and detector is not None:
                 _feed(detector, self)
 
-    def finger_tick(self, f: _Finger, eff, states, links) -> None:
+    def finger_tick(self, f: _Finger, eff, q, links) -> None:
         """One control tick of Algorithm 1 for one finger: stage J3, then the tendon rule."""
-        thres, delta, upper = self.ctl.thres_t, self.ctl.delta, self.scene.upper
+        thres, delta, upper = self.ctl.thres_t, self.ctl.delta, self.engine.upper
         e3, e2, e1 = eff
         if f.stage == J3:
             if self.torque_mode:
@@ -313,36 +294,31 @@ class _GraspRun:
                 hit = f.links[0] in links or f.links[1] in links or bool(f.links[2] & links)
             if hit or f.t3 >= upper[f.j3]:
                 f.stage = J0
-                f.t3 = self.targets[f.j3] = states[0][0]
+                f.t3 = self.targets[f.j3] = q[0]
             else:
                 f.t3 = min(f.t3 + delta, upper[f.j3])
                 self.targets[f.j3] = f.t3
             return
-        self.tendon_tick(f, e2, e1, states, links)
-
-    def tendon_tick(self, f: _Finger, e2: float, e1: float, states, links) -> None:
-        """Stage J0: the tendon's travel goes to J2 and J1 by the controller's coupling rule
-        (``sim/coupling.py``; by default J2 while it is free, then J1)."""
+        # stage J0: the tendon's travel goes to J2 and J1 by the coupling rule (sim/coupling.py)
         if self.torque_mode:
-            blocked = (e2 > self.ctl.thres_t, e1 > self.ctl.thres_t)
+            blocked = (e2 > thres, e1 > thres)
         else:
             blocked = (f.links[1] in links, bool(f.links[2] & links))
-        upper = self.scene.upper
         tendon = advance(
             self.ctl.coupling, Tendon(f.t2, f.t1, f.j2_free, f.j1_free), blocked,
-            (states[1][0], states[2][0]), self.ctl.delta, (upper[f.j2], upper[f.j1]),
+            (q[1], q[2]), delta, (upper[f.j2], upper[f.j1]),
         )  # fmt: skip
         f.t2, f.t1, f.j2_free, f.j1_free = tendon.t2, tendon.t1, tendon.free2, tendon.free1
         self.targets[f.j2], self.targets[f.j1] = f.t2, f.t1
         if tendon.done:
             f.stage = DONE
 
-    def stop_finger(self, f: _Finger, states) -> None:
+    def stop_finger(self, f: _Finger, q) -> None:
         """Early stop: the finger holds the angles it has now and is done."""
         f.stage = DONE
-        f.t3 = self.targets[f.j3] = states[0][0]
-        f.t2 = self.targets[f.j2] = states[1][0]
-        f.t1 = self.targets[f.j1] = states[2][0]
+        f.t3 = self.targets[f.j3] = q[0]
+        f.t2 = self.targets[f.j2] = q[1]
+        f.t1 = self.targets[f.j1] = q[2]
 
     # --- settle and record ----------------------------------------------------------------
 
@@ -355,14 +331,14 @@ class _GraspRun:
 
     def record(self, values, pose, seed, scene_hook) -> GraspRecord:
         """The final state, contacts and flags as a GraspRecord."""
-        scene = self.scene
+        engine = self.engine
         final = np.zeros(self.n)
-        final[self.movable] = [s[0] for s in self.c.getJointStates(self.hand, self.joints)]
-        if np.any(final < scene.lower - 0.05) or np.any(final > scene.upper + 0.05):
+        final[self.movable] = engine.read(self.movable)[0]
+        if np.any(final < engine.lower - 0.05) or np.any(final > engine.upper + 0.05):
             self.flags.append("unstable")
-        contacts = scene.contacts()
+        contacts = engine.contacts()
         if scene_hook is not None:
-            scene_hook(scene)
+            scene_hook(engine)
         link_names = np.array([ct[0] for ct in contacts], dtype="U16")
         in_contact = tuple(f for f in FINGERS if any(nm in FINGER_LINKS[f] for nm in link_names))
         if not any(f in in_contact for f in LONG_FINGERS):
@@ -423,37 +399,6 @@ _FCI_COLUMNS = np.array(
     [[JOINT_NAMES.index(FCI_JOINTS[f][row]) for f in LONG_FINGERS] for row in range(3)]
 )
 """Record columns of the (3, 4) FCI angles: rows J3, J2, J1; columns ff, mf, rf, lf."""
-
-
-SWEEP_CLEARANCE = 0.005
-"""Gap (m) a finger's links keep from the object over the part of its sweep that
-``ControllerSettings.preshape`` skips: it still closes the last 5 mm under control."""
-SWEEP_POSES = 48
-"""Poses checked along a sweep: at most ~3.5 mm of fingertip travel between two of them,
-under the clearance, so no contact can be missed between two checked poses."""
-
-
-def sweep_clear_fraction(
-    scene: Scene, joint_ids: list[int], goal: np.ndarray, links: list[int]
-) -> float:
-    """The fraction of the straight joint-space sweep from 0 to ``goal`` of ``joint_ids`` over
-    which ``links`` keep ``SWEEP_CLEARANCE`` from the object: 1.0 when the whole sweep is free.
-    Collision queries only, no dynamics; the joints are left at 0."""
-    c, hand = scene.client, scene.hand
-    clear = 0
-    for k in range(1, SWEEP_POSES + 1):
-        for j, angle in zip(joint_ids, goal * (k / SWEEP_POSES), strict=True):
-            c.resetJointState(hand, j, float(angle), 0.0)
-        if any(
-            c.getClosestPoints(hand, body, SWEEP_CLEARANCE, linkIndexA=link)
-            for body in scene.objects
-            for link in links
-        ):
-            break
-        clear = k
-    for j in joint_ids:
-        c.resetJointState(hand, j, 0.0, 0.0)
-    return clear / SWEEP_POSES
 
 
 def offset_readings(record: GraspRecord, offsets) -> GraspRecord:

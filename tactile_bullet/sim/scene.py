@@ -20,13 +20,20 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
-import trimesh
 
 from ..errors import UsageError
 from ..hand import FINGER_LINKS, JOINT_NAMES, urdf_path
 from ..objects.placement import object_position
 from ..objects.shapes import Shape
 from ..records import Pose
+
+
+def _is_trimesh(piece) -> bool:
+    """Whether a shape's piece is a trimesh, without importing trimesh (~0.7 s of a
+    command-line grasp): a Trimesh exists only once its module was imported."""
+    module = sys.modules.get("trimesh")
+    return module is not None and isinstance(piece, module.Trimesh)
+
 
 FOREARM_TO_PALM = np.array([0.0, -0.010, 0.247])
 """Palm origin in the forearm frame at zero wrist angles (sheet: WRJ2 then WRJ1 origins)."""
@@ -282,7 +289,7 @@ class Scene:
         p = import_pybullet()
         bodies = []
         for piece in self.shape.pieces(**self.params):
-            if isinstance(piece, trimesh.Trimesh):  # exact concave surface (static only)
+            if _is_trimesh(piece):  # exact concave surface (static only)
                 col = c.createCollisionShape(
                     p.GEOM_MESH,
                     vertices=np.asarray(piece.vertices).tolist(),

@@ -1,7 +1,7 @@
-"""Write the example object set: household-like solids as mesh files, made here with trimesh.
+"""The example object set: household-like solids as mesh files, made here with trimesh.
 
-    python tools/make_objects.py --out objects/            # all of them + train/test sweeps
-    python tools/make_objects.py --out objects/ --only bottle,ball,box
+``tactile-bullet make-objects --out DIR [--only bottle,ball,box]`` writes them (package code,
+so it works in any folder, no repository needed).
 
 Ten solids of revolution (bottle, can, ball, bowl, egg, mug body, pear, vase, cup, spool) and
 four that are not (box, banana, hexagonal prism, soap bar), each in its own file in mixed
@@ -17,13 +17,14 @@ radius, 6-16 cm long). Nothing is downloaded; the same command writes the same f
 
 from __future__ import annotations
 
-import argparse
-import sys
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from pathlib import Path
 
 import numpy as np
 import trimesh
+
+from ..errors import UsageError
+from ..files import atomic_path
 
 SECTIONS = 64
 
@@ -223,7 +224,8 @@ def write_object(name: str, out: Path) -> Path:
         mesh.apply_transform(Z_TO_Y)
     mesh.apply_scale(SCALE[unit])
     path = out / f"{name}.{ext}"
-    mesh.export(path)
+    with atomic_path(path, "example object") as tmp:
+        mesh.export(tmp, file_type=ext)
     return path
 
 
@@ -244,41 +246,42 @@ def sweep_toml(names, poses: dict, mode: str, title: str, samples: int | None = 
     return "\n".join(lines) + "\n"
 
 
-def write_set(out: Path, names=None, force: bool = False) -> list[Path]:
-    """Write the objects named (all by default) and the train/test sweeps into ``out``."""
+def check_names(names: Sequence[str] | None) -> list[str]:
+    """The object names asked for (all by default); UsageError on an unknown one."""
     names = list(OBJECTS) if names is None else list(names)
     unknown = [n for n in names if n not in OBJECTS]
-    if unknown:
-        raise SystemExit(
-            f"make_objects: unknown object {unknown[0]!r} (objects: {', '.join(OBJECTS)})"
+    if unknown or not names:
+        raise UsageError(
+            f"unknown example object {unknown[0] if unknown else ''!r} "
+            f"(objects: {', '.join(OBJECTS)})"
         )
-    out.mkdir(parents=True, exist_ok=True)
+    return names
+
+
+def write_set(out: Path, names: Sequence[str] | None = None, force: bool = False) -> list[Path]:
+    """Write the objects named (all by default) and the train/test sweeps into ``out``; an
+    existing file is refused before anything is written unless ``force``."""
+    names = check_names(names)
+    out = Path(out)
+    if out.exists() and not out.is_dir():
+        raise UsageError(f"--out {out} exists and is not a folder")
     targets = [out / f"{n}.{OBJECTS[n][1]}" for n in names] + [
         out / "train.toml",
         out / "test.toml",
     ]
     existing = [p for p in targets if p.exists()]
     if existing and not force:
-        raise SystemExit(f"make_objects: {existing[0]} exists (pass --force to overwrite)")
+        raise UsageError(f"{existing[0]} exists (pass --force to overwrite)")
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise UsageError(f"cannot create {out}: {exc.strerror or exc}") from None
     paths = [write_object(n, out) for n in names]
-    (out / "train.toml").write_text(sweep_toml(names, TRAIN_POSES, "grid", "objects-train"))
-    (out / "test.toml").write_text(
-        sweep_toml(names, TEST_POSES, "random", "objects-test", TEST_SAMPLES)
-    )
+    sweeps = {
+        "train.toml": sweep_toml(names, TRAIN_POSES, "grid", "objects-train"),
+        "test.toml": sweep_toml(names, TEST_POSES, "random", "objects-test", TEST_SAMPLES),
+    }
+    for file, text in sweeps.items():
+        with atomic_path(out / file, "sweep") as tmp:
+            tmp.write_text(text)
     return paths + [out / "train.toml", out / "test.toml"]
-
-
-def main(argv=None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--out", required=True, help="folder to write the objects into")
-    parser.add_argument("--only", help="comma-separated object names (default: all)")
-    parser.add_argument("--force", action="store_true", help="overwrite existing files")
-    args = parser.parse_args(argv)
-    names = [n.strip() for n in args.only.split(",")] if args.only else None
-    for path in write_set(Path(args.out), names, args.force):
-        print(path)
-    return 0
-
-
-if __name__ == "__main__":
-    sys.exit(main())

@@ -1,0 +1,42 @@
+"""Which physics engine a sweep's grasps run on: the TOML's top-level ``engine`` key, checked
+before any grasp, and ``generate --engine`` / ``--hand-model`` applied to a sweep."""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import replace
+from typing import Any
+
+from ..errors import UsageError
+
+
+def merge_engine(data: Mapping[str, Any], controller_data: Any, source: str) -> dict:
+    """``[controller]`` (which must be a table) with the top-level ``engine = "..."`` shorthand
+    folded in (the two may not disagree)."""
+    if not isinstance(controller_data, Mapping):
+        raise UsageError(f"{source}: [controller] must be a table")
+    out = dict(controller_data)
+    if "engine" in data:
+        if out.get("engine", data["engine"]) != data["engine"]:
+            raise UsageError(f"{source}: engine and [controller] engine disagree")
+        out["engine"] = data["engine"]
+    return out
+
+
+def check_engine(controller, source: str) -> None:
+    """An unknown or uninstalled engine is refused before any grasp, naming the sweep."""
+    if controller.engine == "bullet":
+        return
+    from ..plugins import get_engine
+
+    try:
+        get_engine(controller.engine)
+    except UsageError as exc:
+        raise UsageError(f"{source}: {exc}") from None
+
+
+def with_engine(sweep, engine: str, hand_model: str | None = None):
+    """The sweep simulated with another physics engine (``generate --engine``) and, for
+    mujoco, another hand model (``--hand-model``)."""
+    settings = {"engine": engine} | ({"hand_model": hand_model} if hand_model else {})
+    return replace(sweep, controller=replace(sweep.controller, **settings))

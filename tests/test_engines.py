@@ -1,0 +1,247 @@
+"""The engine layer: the MuJoCo hand matches the sheet, concave objects stay concave, and
+choosing an engine fails clearly before any work."""
+
+from __future__ import annotations
+
+import importlib.util
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+from cli_helpers import run_error
+
+from tactile_bullet.objects.shapes import BUILTIN_SHAPES
+from tactile_bullet.records import ControllerSettings, Pose
+from tactile_bullet.sim.engines.mujoco_objects import (
+    object_geoms,
+    overfill,
+    revolved_depth,
+    torus_depth,
+)
+
+REPO = Path(__file__).resolve().parent.parent
+SHAPES = {s.name: s for s in BUILTIN_SHAPES}
+TIPS = {  # docs/hand.md, zero pose, palm frame; the distal frame sits 26 mm (thumb 27.5) below
+    "ffdistal": (0.033, 0.0, 0.191 - 0.026),
+    "mfdistal": (0.011, 0.0, 0.195 - 0.026),
+    "lfdistal": (-0.033, 0.0, 0.1825 - 0.026),
+}
+
+
+def test_mjcf_generator_reproduces_committed_file(tmp_path):
+    out = tmp_path / "hand.xml"
+    subprocess.run([sys.executable, str(REPO / "tools" / "make_mjcf.py"), str(out)], check=True,
+                   capture_output=True)  # fmt: skip
+    assert out.read_text() == (REPO / "urdf" / "shadow_hand.xml").read_text()
+
+
+def test_mjcf_hand_has_the_sheets_kinematics_and_one_tendon_actuator_per_finger():
+    import mujoco
+
+    m = mujoco.MjModel.from_xml_path(str(REPO / "urdf" / "shadow_hand.xml"))
+    d = mujoco.MjData(m)
+    mujoco.mj_forward(m, d)
+    for body, xyz in TIPS.items():
+        assert np.allclose(d.body(body).xpos, xyz, atol=1e-4), body
+    assert np.degrees(m.joint("FFJ3").range).round(3).tolist() == [-15.0, 90.0]
+    # J1 and J2 share one tendon actuator whose pull is J1 + J2 (coefficients 1, 1)
+    for f in ("FF", "MF", "RF", "LF"):
+        act = m.actuator(f"A_{f}J0")
+        assert act.trntype[0] == mujoco.mjtTrn.mjTRN_TENDON
+        assert np.allclose(m.actuator_forcerange[act.id], (-1.0, 1.0))
+        with pytest.raises(KeyError):
+            m.actuator(f"A_{f}J1")
+    assert np.allclose(m.actuator_forcerange[m.actuator("A_THJ5").id], (-5.0, 5.0))
+
+
+def test_torus_and_hyperboloid_pieces_keep_hole_and_waist_within_a_fifth_of_a_mm():
+    torus = SHAPES["torus"]
+    params = torus.resolve({})
+    cells = [g.vertices for g in object_geoms(torus, params)]
+    assert len(cells) > 1
+    worst, _ = overfill(cells, lambda p: torus_depth(p, **params))
+    assert worst < 2e-4
+    # the hole stays open: no piece reaches the axis
+    import trimesh
+
+    axis = np.array([[0.0, 0.0, 0.0], [0.02, 0.0, 0.0]])
+    assert not any(trimesh.convex.convex_hull(c).contains(axis).any() for c in cells)
+    hyper = SHAPES["hyperboloid"]
+    params = hyper.resolve({})
+    cells = [g.vertices for g in object_geoms(hyper, params)]
+    worst, _ = overfill(cells, lambda p: revolved_depth(p, hyper, params))
+    assert worst < 2e-4
+    # the waist stays: a point just outside the waist but inside the end radius is free
+    waist = np.array([[0.0, params["waist_radius"] + 0.003, 0.0]])
+    assert not any(trimesh.convex.convex_hull(c).contains(waist).any() for c in cells)
+
+
+def test_sphere_and_cylinder_are_native_geoms():
+    assert [g.kind for g in object_geoms(SHAPES["sphere"], SHAPES["sphere"].resolve({}))] == [
+        "sphere"
+    ]
+    cyl = object_geoms(SHAPES["cylinder"], SHAPES["cylinder"].resolve({"radius": 0.03}))
+    assert [g.kind for g in cyl] == ["cylinder"] and cyl[0].size[0] == 0.03
+
+
+def test_same_size_at_another_pose_matches_a_fresh_compile():
+    """The compiled-model cache only moves the object: a grasp after another pose of the same
+    size is bit-identical to one on an empty cache."""
+    from tactile_bullet.sim.engines.mujoco import clear_compiled
+    from tactile_bullet.sim.grasp import simulate_grasp
+
+    ctl = ControllerSettings(engine="mujoco", mode="contact")
+    pose = Pose((0.004, 0.0, 0.002), 0.2)
+    simulate_grasp("torus", None, Pose(), ctl)
+    warm = simulate_grasp("torus", None, pose, ctl)
+    clear_compiled()
+    cold = simulate_grasp("torus", None, pose, ctl)
+    assert warm.equals(cold)
+    assert warm.metadata()["controller"]["engine"] == "mujoco"
+
+
+def test_unknown_engine_exits_2_listing_the_installed_ones(capsys):
+    err = run_error(capsys, ["grasp", "--shape", "sphere", "--engine", "ode"])
+    assert "unknown engine 'ode'" in err and "bullet, mujoco" in err
+
+
+def test_missing_mujoco_exits_2_naming_the_extra(capsys, monkeypatch):
+    real = importlib.util.find_spec
+    monkeypatch.setattr(
+        importlib.util, "find_spec", lambda name, *a: None if name == "mujoco" else real(name, *a)
+    )
+    err = run_error(capsys, ["grasp", "--shape", "sphere", "--engine", "mujoco"])
+    assert "pip install 'tactile-bullet[mujoco]'" in err
+
+
+def test_sweep_engine_is_checked_before_any_grasp(tmp_path):
+    from tactile_bullet.datasets.sweeps import Sweep
+    from tactile_bullet.errors import UsageError
+
+    table = {"engine": "mujoco", "shapes": [{"name": "sphere"}]}
+    assert Sweep.from_dict(table).controller.engine == "mujoco"
+    with pytest.raises(UsageError, match="unknown engine 'odee'"):
+        Sweep.from_dict({"engine": "odee", "shapes": [{"name": "sphere"}]})
+    with pytest.raises(UsageError, match="disagree"):
+        Sweep.from_dict({"engine": "mujoco", "controller": {"engine": "bullet"},
+                         "shapes": [{"name": "sphere"}]})  # fmt: skip
+
+
+def test_verify_says_when_records_mix_engines(tmp_path, capsys):
+    from tactile_bullet.cli import main
+    from tactile_bullet.records import save_record
+    from tactile_bullet.sim.grasp import simulate_grasp
+
+    for engine in ("bullet", "mujoco"):
+        ctl = ControllerSettings(engine=engine, mode="contact")
+        save_record(simulate_grasp("sphere", None, Pose(), ctl), tmp_path / f"{engine}.npz")
+    assert main(["verify", "--data", str(tmp_path)]) == 0
+    assert "mixes physics engines: bullet, mujoco" in capsys.readouterr().out
+
+
+def _prefixed_hand(tmp_path, wrist: bool = False) -> Path:
+    """The project's MJCF as another model would name it (``rh_`` prefixes, as the MuJoCo
+    Menagerie's); with ``wrist``, mounted on a turned, offset forearm with two wrist joints."""
+    import re
+
+    text = (REPO / "urdf" / "shadow_hand.xml").read_text()
+    text = re.sub(
+        r'(name|joint|tendon)="([^"]+)"',
+        lambda m: m.group(0) if m.group(2) in ("grey", "dark", "skin")
+        else f'{m.group(1)}="rh_{m.group(2)}"',
+        text,
+    )  # fmt: skip
+    if wrist:
+        inertial = '<inertial pos="0 0 0" mass="0.5" diaginertia="1e-3 1e-3 1e-3"/>'
+        text = text.replace(
+            '<body name="rh_palm">',
+            '<body name="rh_forearm" pos="0.1 0.2 0.3" quat="0.9238795 0 0 0.3826834">'
+            f'{inertial}<joint name="rh_WRJ2" axis="0 1 0" range="-0.5 0.2"/>'
+            f'<body name="rh_wrist" pos="0 0 0.01">{inertial}'
+            '<joint name="rh_WRJ1" axis="1 0 0" range="-0.6 0.4"/>'
+            '<body name="rh_palm" pos="0 0 0.02">',
+            1,
+        )
+        text = text.replace("  </worldbody>", "  </body></body></worldbody>", 1)
+        text = text.replace(
+            "  <actuator>", '  <actuator>\n    <position name="rh_A_WRJ2" joint="rh_WRJ2"/>', 1
+        )
+    path = tmp_path / ("wrist.xml" if wrist else "rh.xml")
+    path.write_text(text)
+    return path
+
+
+def test_hand_model_is_found_by_shadow_names_and_grasps_as_the_own_model(tmp_path):
+    from tactile_bullet.sim.grasp import simulate_grasp
+
+    own = simulate_grasp("cylinder", None, Pose(), ControllerSettings(engine="mujoco"))
+    ctl = ControllerSettings(engine="mujoco", hand_model=str(_prefixed_hand(tmp_path)))
+    other = simulate_grasp("cylinder", None, Pose(), ctl)
+    assert np.array_equal(own.final_angles, other.final_angles)
+    assert other.metadata()["controller"]["hand_model"].endswith("rh.xml")
+
+
+def test_hand_model_on_a_turned_forearm_has_its_wrist_welded_and_palm_frame_kept(tmp_path):
+    """The object is placed, and contacts reported, in the model's palm frame: a hand mounted
+    elsewhere grasps the same way (up to gravity's other direction)."""
+    from tactile_bullet.sim.grasp import simulate_grasp
+
+    ctl = ControllerSettings(engine="mujoco", mode="contact")
+    own = simulate_grasp("cylinder", None, Pose(), ctl)
+    moved = ControllerSettings(engine="mujoco", mode="contact",
+                               hand_model=str(_prefixed_hand(tmp_path, wrist=True)))  # fmt: skip
+    other = simulate_grasp("cylinder", None, Pose(), moved)
+    assert other.fingers_in_contact == own.fingers_in_contact
+    assert np.abs(other.fci_angles() - own.fci_angles()).max() < 0.02
+    assert other.final("WRJ1") == other.final("WRJ2") == 0.0
+    # contacts in the palm frame, where the own model (palm = world) reports them
+    assert sorted(other.contact_link) == sorted(own.contact_link)
+    for link in own.contact_link:
+        a, b = own.contact_link == link, other.contact_link == link
+        where = own.contact_position[a].mean(0) - other.contact_position[b].mean(0)
+        facing = own.contact_normal[a].mean(0) - other.contact_normal[b].mean(0)
+        assert np.abs(where).max() < 3e-3 and np.abs(facing).max() < 0.1
+
+
+def test_hand_model_without_a_required_actuator_exits_2_naming_it(tmp_path, capsys):
+    path = _prefixed_hand(tmp_path)
+    path.write_text(path.read_text().replace('name="rh_A_MFJ0"', 'name="rh_A_MFJX"'))
+    err = run_error(capsys, ["grasp", "--shape", "sphere", "--hand-model", str(path)])
+    assert "has no actuator A_MFJ0" in err
+    err = run_error(capsys, ["grasp", "--shape", "sphere", "--hand-model", str(tmp_path / "x")])
+    assert "does not exist" in err
+
+
+def test_evaluate_report_names_the_engines_of_mixed_test_data():
+    from tactile_bullet.experiments.workflow import evaluate, train
+    from tactile_bullet.sim.grasp import simulate_grasp
+
+    records = [
+        simulate_grasp(shape, None, Pose(), ControllerSettings(engine=engine, mode="contact"))
+        for shape in ("sphere", "cylinder")
+        for engine in ("bullet", "mujoco")
+    ]
+    model = train(records, "raw-joints", "knn")
+    assert evaluate(model, records)["engines"] == ["bullet", "mujoco"]
+    assert "engines" not in evaluate(model, records[::2])  # bullet only: as before engines
+
+
+def test_generate_on_mujoco_and_no_resume_across_engines(tmp_path, capsys):
+    """A dataset says which engine made it, and resuming it with another engine is refused
+    (a resumed run never mixes simulators)."""
+    import json
+
+    from tactile_bullet.cli import main
+    from tactile_bullet.datasets.dataset import read_records, verify
+
+    out = tmp_path / "smoke"
+    argv = ["generate", "--preset", "smoke", "--out", str(out), "--workers", "1", "--json"]
+    assert main([*argv, "--engine", "mujoco"]) == 0
+    assert json.loads(capsys.readouterr().out)["records"] == 4
+    records = read_records(out).records
+    assert {r.controller.engine for r in records} == {"mujoco"}
+    assert verify(out)["engines"] == ["mujoco"]
+    err = run_error(capsys, [*argv, "--resume"])  # bullet now: another dataset
+    assert "holds a different dataset" in err

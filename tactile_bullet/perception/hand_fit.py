@@ -281,17 +281,18 @@ def fit_hand(
         rows.append({"strength": strength, "held_out_right": right,
                      "held_out_margin": margin / len(shapes)})  # fmt: skip
     # among the refits, the strongest pull within TOLERANCE of the most right answers (a weaker
-    # pull must win by more than a grasp or two of luck); then it must beat the start outright
+    # pull must win by more than a grasp or two of luck); then it must beat the start outright.
+    # Under 20 grasps the slack is no grasp at all: every candidate then competes on (right
+    # answers, margin), where the margin tells apart pulls that name as many grasps right.
     top = max(row["held_out_right"] for row in rows[1:]) if len(rows) > 1 else 0
     slack = math.floor(TOLERANCE * len(shapes))
+    eligible = [row for row in rows[1:] if row["held_out_right"] >= top - slack]
     best = rows[0]
-    for row in rows[1:]:
-        if row["held_out_right"] >= top - slack:
-            if (row["held_out_right"], row["held_out_margin"]) > (
-                best["held_out_right"], best["held_out_margin"]
-            ):
-                best = row
-            break
+    for row in eligible[:1] if slack else eligible:
+        if (row["held_out_right"], row["held_out_margin"]) > (
+            best["held_out_right"], best["held_out_margin"]
+        ):
+            best = row
     strength = best["strength"]
     cal = start
     if strength is not None:

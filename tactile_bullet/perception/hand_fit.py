@@ -14,9 +14,8 @@ user knows only what each calibration object is. :func:`fit_hand` alternates
 
 How hard the start pulls is chosen by cross-validation over the calibration grasps themselves
 (folds stratified by shape): each strength's coefficients, fitted without a fold, name the
-fold's grasps among the calibration shapes; the strongest pull within a few grasps
-(``TOLERANCE``) of the most right answers wins, and must then beat the start on right answers,
-then on the mean margin (by how much the labelled family beats the best other). The
+fold's grasps among the calibration shapes; the most right answers win, then the widest mean
+margin (by how much the labelled family beats the best other), then the stronger pull. The
 starting coefficients are one of the candidates, so a calibration that does not help on grasps
 it has not seen is never written: a hand is never made worse than the shipped coefficients on
 the evidence at hand.
@@ -66,12 +65,6 @@ a pull of 1 and 0.25."""
 GAIN_PULL = 10.0
 """How much harder the gains and sideways terms are pulled than the intercepts: a gain trades
 against the fitted sizes (a larger gain, a smaller object), an intercept much less so."""
-
-TOLERANCE = 0.05
-"""Share of the calibration grasps by which a weaker pull's held-out right answers may fall
-short of the best refit's and still be preferred (the one-standard-error rule's spirit): picked
-on the count alone, the weakest pull won by a grasp or two and lost on unseen grasps (the
-shifted-distal hand, 5 per shape: 99.2% without that candidate, 95.0% with it)."""
 
 MARGIN_CLIP = 10.0
 """Held-out margins (best other family's score minus the labelled one's) are clipped to
@@ -280,15 +273,8 @@ def fit_hand(
             right, margin = right + r, margin + c
         rows.append({"strength": strength, "held_out_right": right,
                      "held_out_margin": margin / len(shapes)})  # fmt: skip
-    # among the refits, the strongest pull within TOLERANCE of the most right answers (a weaker
-    # pull must win by more than a grasp or two of luck); then it must beat the start outright.
-    # Under 20 grasps the slack is no grasp at all: every candidate then competes on (right
-    # answers, margin), where the margin tells apart pulls that name as many grasps right.
-    top = max(row["held_out_right"] for row in rows[1:]) if len(rows) > 1 else 0
-    slack = math.floor(TOLERANCE * len(shapes))
-    eligible = [row for row in rows[1:] if row["held_out_right"] >= top - slack]
     best = rows[0]
-    for row in eligible[:1] if slack else eligible:
+    for row in rows[1:]:
         if (row["held_out_right"], row["held_out_margin"]) > (
             best["held_out_right"], best["held_out_margin"]
         ):

@@ -64,6 +64,14 @@ def resolve_shape(name: str) -> Shape:
     return get_shape(name)
 
 
+def _frozen(cols) -> np.ndarray:
+    """A read-only column array: an engine may cache what it derives from one it is passed
+    every tick (``MujocoEngine._lookup``) because the array cannot change under it."""
+    out = np.array(cols, int)
+    out.flags.writeable = False
+    return out
+
+
 class _Finger:
     """Algorithm 1's state for one long finger."""
 
@@ -136,7 +144,7 @@ class _GraspRun:
         self.engine, self.ctl = engine, ctl
         self.shape = spec.name
         n = self.n = len(JOINT_NAMES)
-        self.movable = np.array(engine.columns)
+        self.movable = _frozen(engine.columns)
         engine.reset_joints(self.movable, [0.0] * len(self.movable))
         overlap = engine.penetrations(PENETRATION_TOLERANCE)
         if overlap:
@@ -211,7 +219,7 @@ class _GraspRun:
         angles are unchanged by this, to 0.005 deg). With ``preshape`` each finger's J3
         starts the same way."""
         ctl, engine, targets = self.ctl, self.engine, self.targets
-        thumb = np.array([JOINT_NAMES.index(nm) for nm in THUMB_OPPOSED])
+        thumb = _frozen([JOINT_NAMES.index(nm) for nm in THUMB_OPPOSED])
         goal = np.array(list(THUMB_OPPOSED.values()))
         self.forces[thumb] = (5.0, 3.0, 2.0, 2.0, 1.0)
         n_thumb = int(math.ceil(np.abs(goal).max() / (THUMB_SPEED_RATIO * ctl.delta)))
@@ -257,7 +265,7 @@ class _GraspRun:
         stall of 0.1 s is often a pause in the adaptation, and stopping there moved final
         angles by 18 deg (median over 32 thesis-preset grasps) for 5% fewer steps."""
         ctl, engine = self.ctl, self.engine
-        watch = np.array([j for f in self.fingers for j in (f.j3, f.j2, f.j1)])
+        watch = _frozen([j for f in self.fingers for j in (f.j3, f.j2, f.j1)])
         detector = _early_stop_detector(self) if ctl.early_stop else None
         while True:
             if self.steps % ctl.control_every == 0:

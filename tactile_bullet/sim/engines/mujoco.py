@@ -101,6 +101,7 @@ class MujocoEngine(Engine):
         self._targets = np.zeros(n + 1)  # column n stays 0: the pair of unpaired actuators
         self._forces = np.zeros(n)
         self._sent_forces = b""
+        self._pair_of_drive = self._pair[self._drive_cols]
         self._lookups: dict = {}
         self.data = d = mujoco.MjData(m)
         mujoco.mj_forward(m, d)
@@ -203,10 +204,10 @@ class MujocoEngine(Engine):
         c = self._lookup(cols)[0]
         t = self._targets
         t[c] = targets
-        self._forces[c] = forces
         dc, acts = self._drive_cols, self._drive_acts
         _, _, _, ctrl, forcerange = self._views
-        ctrl[acts] = t[dc] + t[self._pair[dc]]
+        ctrl[acts] = t[dc] + t[self._pair_of_drive]
+        self._forces[c] = forces
         f = self._forces[dc]
         sent = f.tobytes()
         if sent != self._sent_forces:  # they change a few times a grasp

@@ -102,6 +102,28 @@ def test_same_size_at_another_pose_matches_a_fresh_compile():
     assert warm.metadata()["controller"]["engine"] == "mujoco"
 
 
+def test_a_reused_model_forgets_the_last_grasps_friction_and_force_limits():
+    """A grasp reuses the last finished grasp's model and data of its size: what that grasp
+    set (friction, motor force limits, joint state) must not leak into the next record, and
+    two engines alive at once must not share a model."""
+    from tactile_bullet.plugins import get_engine
+    from tactile_bullet.sim.engines.mujoco import clear_compiled
+    from tactile_bullet.sim.grasp import simulate_grasp
+
+    ctl = ControllerSettings(engine="mujoco")
+    simulate_grasp("sphere", None, Pose(), ControllerSettings(engine="mujoco", friction=0.3,
+                                                              motor_force=0.6))  # fmt: skip
+    warm = simulate_grasp("sphere", None, Pose(), ctl)
+    clear_compiled()
+    cold = simulate_grasp("sphere", None, Pose(), ctl)
+    assert warm.equals(cold)
+    spec = SHAPES["sphere"]
+    factory = get_engine("mujoco")
+    with factory(spec, spec.resolve(None), Pose(), ctl) as a:
+        with factory(spec, spec.resolve(None), Pose(), ctl) as b:
+            assert a.model is not b.model and a.data is not b.data
+
+
 def test_unknown_engine_exits_2_listing_the_installed_ones(capsys):
     err = run_error(capsys, ["grasp", "--shape", "sphere", "--engine", "ode"])
     assert "unknown engine 'ode'" in err and "bullet, mujoco" in err

@@ -151,6 +151,27 @@ def test_sweep_engine_is_checked_before_any_grasp(tmp_path):
                          "shapes": [{"name": "sphere"}]})  # fmt: skip
 
 
+def test_sweep_hand_model_is_checked_before_any_grasp(tmp_path):
+    """A sweep's [controller] hand_model that is missing, not MJCF, or given without the
+    mujoco engine is refused when the sweep is read; before, every grasp failed on its own
+    and generate ended with status 0 and an empty dataset."""
+    from tactile_bullet.datasets.sweeps import Sweep
+    from tactile_bullet.errors import UsageError
+
+    shapes = [{"name": "sphere"}]
+    missing = str(tmp_path / "missing.xml")
+    with pytest.raises(UsageError, match="missing.xml"):
+        Sweep.from_dict({"engine": "mujoco", "controller": {"hand_model": missing},
+                         "shapes": shapes})  # fmt: skip
+    with pytest.raises(UsageError, match="mujoco engine"):
+        Sweep.from_dict({"controller": {"hand_model": missing}, "shapes": shapes})
+    text = tmp_path / "hand.txt"
+    text.write_text("<mujoco/>")
+    with pytest.raises(UsageError, match="MJCF"):
+        Sweep.from_dict({"engine": "mujoco", "controller": {"hand_model": str(text)},
+                         "shapes": shapes})  # fmt: skip
+
+
 def test_verify_says_when_records_mix_engines(tmp_path, capsys):
     from tactile_bullet.cli import main
     from tactile_bullet.records import save_record

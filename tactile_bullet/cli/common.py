@@ -118,11 +118,7 @@ def engine_settings(args: argparse.Namespace) -> dict[str, str]:
         if engine not in (None, "mujoco"):
             raise UsageError(f"--hand-model is an MJCF model: not with --engine {engine}")
         engine = engine_name(argparse.Namespace(engine="mujoco"))
-        from ..files import input_path
         from ..sim.engines.mujoco_hand import load_hand_spec
-
-        if input_path(model, "hand model").suffix.lower() != ".xml":
-            raise UsageError(f"--hand-model {model} is not an MJCF model file (.xml)")
 
         load_hand_spec(model)
         out["hand_model"] = str(Path(model).resolve())

@@ -80,7 +80,8 @@ def run(args: argparse.Namespace) -> int:
     if hand.kept_start:
         verdict = "kept the shipped coefficients (no refit named held-out grasps better)"
     else:
-        verdict = f"refitted (pull toward the shipped coefficients: {hand.strength:g} grasps)"
+        verdict = (f"refitted (pull toward the shipped coefficients: {hand.strength:g} x the "
+                   "calibration grasps)")  # fmt: skip
     print(f"calibrated on {counts}: {verdict}")
     print(f"held-out calibration grasps named right: {100 * r['held_out_accuracy']:.0f}% "
           f"(shipped coefficients: {100 * r['start_held_out_accuracy']:.0f}%)")  # fmt: skip

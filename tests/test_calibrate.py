@@ -199,6 +199,14 @@ def test_calibrate_writes_a_file_identify_can_use(known, tmp_path, capsys):
     assert main(["identify", "--model", str(model), "--record", str(next(known.glob("0-*"))),
                  "--hand-calibration", str(out)]) == 0  # fmt: skip
     assert "sphere" in capsys.readouterr().out
+    # the JSON says which hand calibration answered, so a result can be traced to it
+    assert main(["identify", "--model", str(model), "--record", str(next(known.glob("0-*"))),
+                 "--hand-calibration", str(out), "--json"]) == 0  # fmt: skip
+    used = json.loads(capsys.readouterr().out)["hand_calibration"]
+    assert used["file"] == str(out) and used["grasps_per_shape"] == {"sphere": 2, "cylinder": 2}
+    assert main(["evaluate", "--model", str(model), "--data", str(known),
+                 "--hand-calibration", str(out), "--json"]) == 0  # fmt: skip
+    assert json.loads(capsys.readouterr().out)["hand_calibration"]["file"] == str(out)
 
 
 def test_calibrate_never_overwrites_unasked_and_checks_sizes_first(known, tmp_path, capsys):

@@ -255,5 +255,15 @@ def hand_calibration_scope(args) -> Iterator[None]:
     from ..perception.shape_model import use_calibration
     from ..realhand.hand_calibration import load
 
-    with use_calibration(load(path).calibration):
+    hand = load(path)
+    # what the JSON of identify and evaluate report as their hand_calibration block
+    args.hand_calibration_info = {"file": str(path), **hand.to_dict()}
+    with use_calibration(hand.calibration):
         yield
+
+
+def note_hand_calibration(args, doc: dict) -> None:
+    """Say in a JSON document which hand calibration its answers used (none: no key)."""
+    info = getattr(args, "hand_calibration_info", None)
+    if info is not None:
+        doc["hand_calibration"] = info

@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from .common import add_force_flag, emit_json
+from .common import add_force_flag, emit_json, note_hand_calibration
 from .data_args import add_allow_partial, read_data, report_skipped
 
 
@@ -49,6 +49,7 @@ def run(args: argparse.Namespace) -> int:
     loaded = read_data(args.data, args)
     doc = evaluate(model, loaded.records)
     report_skipped(loaded, args, doc)
+    note_hand_calibration(args, doc)
     if report is not None:
         written = write_evaluation_report(doc, report)
         doc["report"] = str(report)

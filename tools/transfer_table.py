@@ -12,7 +12,8 @@ Usage::
 
     tactile-bullet benchmark --protocol cross-engine --training clean,randomized --out B
     python tools/transfer_table.py --cache B/data --protocol cross-engine \\
-        --method time-series:random-forest,signature:svm --training clean,randomized
+        --method time-series:random-forest,signature:svm,signature@level=true:svm \\
+        --training clean,randomized
 """
 
 from __future__ import annotations
@@ -29,6 +30,22 @@ from tactile_bullet.experiments.workflow import labels_of
 from tactile_bullet.learn.perturb import perturb_all
 from tactile_bullet.learn.robust import augment
 from tactile_bullet.plugins import get_classifier, get_descriptor
+
+
+def descriptor(spec: str):
+    """``name`` or ``name@key=value&key=value`` (a variant with parameters, e.g.
+    ``signature@level=true``; values read as JSON, else kept as text)."""
+    import json
+
+    name, _, rest = spec.partition("@")
+    params = {}
+    for item in filter(None, rest.split("&")):
+        key, _, value = item.partition("=")
+        try:
+            params[key] = json.loads(value)
+        except ValueError:
+            params[key] = value
+    return get_descriptor(name, **params)
 
 
 def accuracy_rows(cache: Path, protocols: list[str], methods: list[tuple[str, str]],
@@ -53,7 +70,7 @@ def accuracy_rows(cache: Path, protocols: list[str], methods: list[tuple[str, st
                 test = perturb_all(test, level.sensor, level_seed(name, level.name, seed))
             y_test = labels_of(test).astype(str)
             for desc, clf in methods:
-                d = get_descriptor(desc)
+                d = descriptor(desc)
                 x_test = np.asarray(d.transform(test), float)
                 for training in trainings:
                     parts = P.train_sets(level.train or protocol.train)
@@ -86,7 +103,7 @@ def main() -> None:
                          args.training.split(","), args.scale)  # fmt: skip
     for r in rows:
         if r["headline"] or args.all_levels or r["protocol"] == "cross-engine":
-            print(f"{r['protocol']:<14} {r['level']:<16} {r['descriptor']:<20} "
+            print(f"{r['protocol']:<14} {r['level']:<16} {r['descriptor']:<30} "
                   f"{r['classifier']:<14} {r['training']:<12} {100 * r['accuracy']:5.1f} "
                   f"({r['test_records']})", flush=True)  # fmt: skip
 

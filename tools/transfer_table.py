@@ -49,10 +49,18 @@ def descriptor(spec: str):
 
 
 def accuracy_rows(cache: Path, protocols: list[str], methods: list[tuple[str, str]],
-                  trainings: list[str], scale: str = "full", seed: int = 0) -> list[dict]:
-    """One row per (protocol, level, descriptor, classifier, training), as the benchmark's."""
+                  trainings: list[str], scale: str = "full", seed: int = 0,
+                  doubt: bool = False, j0: bool = False) -> list[dict]:
+    """One row per (protocol, level, descriptor, classifier, training), as the benchmark's;
+    with ``doubt`` also its ``ambiguous`` shares, calibrated as the benchmark calibrates them
+    (slow: a shape fit per held-out training grasp and per test grasp). ``j0``: the test
+    grasps read as a hand that publishes only J0 = J1 + J2 is imported (``coupled.j0_only``)."""
+    from tactile_bullet.experiments.benchmark import _scored
+    from tactile_bullet.learn.doubt import calibrate_margin, cross_check_names
+
     table = P.protocols(scale)
     loaded: dict[str, list] = {}
+    seconds_of: dict[str, np.ndarray] = {}
 
     def records(name: str) -> list:
         if name not in loaded:
@@ -68,6 +76,10 @@ def accuracy_rows(cache: Path, protocols: list[str], methods: list[tuple[str, st
             test = [r for t in level.test for r in records(t)]
             if not level.sensor.is_clean:
                 test = perturb_all(test, level.sensor, level_seed(name, level.name, seed))
+            if j0:
+                from tactile_bullet.learn.coupled import j0_only
+
+                test = [j0_only(r) for r in test]
             y_test = labels_of(test).astype(str)
             for desc, clf in methods:
                 d = descriptor(desc)
@@ -79,13 +91,26 @@ def accuracy_rows(cache: Path, protocols: list[str], methods: list[tuple[str, st
                     train = [r for p in parts for r in records(p)]
                     if training == "noise-aware":
                         train = augment(train, seed=seed)
-                    model = get_classifier(clf).fit(np.asarray(d.transform(train), float),
-                                                    labels_of(train))  # fmt: skip
+                    x, y = np.asarray(d.transform(train), float), labels_of(train)
+                    model = get_classifier(clf).fit(x, y)
                     pred = np.asarray(model.predict(x_test)).astype(str)
+                    ambiguous = None
+                    if doubt:
+                        calibration = calibrate_margin(lambda c=clf: get_classifier(c), x, y,
+                                                       seed=seed, records=train, classifier=clf)
+                        second = None
+                        if calibration["cross_check"] is not None:
+                            key = f"{name}/{level.name}"
+                            if key not in seconds_of:
+                                classes = sorted(str(c) for c in model.classes_)
+                                seconds_of[key] = cross_check_names(test, classes)
+                            second = seconds_of[key]
+                        pred, ambiguous = _scored(model, x_test, y_test, calibration, second)
                     rows.append({"protocol": name, "level": level.name, "descriptor": desc,
                                  "classifier": clf, "training": training,
                                  "headline": level.headline, "test_records": len(test),
-                                 "accuracy": float(np.mean(pred == y_test))})  # fmt: skip
+                                 "accuracy": float(np.mean(pred == y_test)),
+                                 "ambiguous": ambiguous})  # fmt: skip
     return rows
 
 
@@ -97,10 +122,20 @@ def main() -> None:
     ap.add_argument("--training", default="clean", help="comma list")
     ap.add_argument("--scale", default="full")
     ap.add_argument("--all-levels", action="store_true", help="every level, not headlines")
+    ap.add_argument("--doubt", metavar="FILE.json",
+                    help="also calibrate each method's margin and write the rows, with their "
+                         "'ambiguous' shares, as a benchmark.json for tools/doubt_report.py")
+    ap.add_argument("--j0-only", action="store_true",
+                    help="read the test grasps as a hand publishing only J0 = J1 + J2")
     args = ap.parse_args()
     methods = [tuple(m.split(":", 1)) for m in args.method.split(",")]
     rows = accuracy_rows(args.cache, P.resolve(args.protocol), methods,
-                         args.training.split(","), args.scale)  # fmt: skip
+                         args.training.split(","), args.scale, doubt=bool(args.doubt),
+                         j0=args.j0_only)  # fmt: skip
+    if args.doubt:
+        import json
+
+        Path(args.doubt).write_text(json.dumps({"rows": rows}, indent=1))
     for r in rows:
         if r["headline"] or args.all_levels or r["protocol"] == "cross-engine":
             print(f"{r['protocol']:<14} {r['level']:<16} {r['descriptor']:<30} "

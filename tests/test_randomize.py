@@ -274,6 +274,21 @@ def test_engine_draw_is_recorded_per_record_and_verify_names_both(tmp_path, caps
     assert not (tmp_path / "x").exists()
 
 
+def test_mujoco_randomized_twin_draws_grasp_on_mujoco():
+    """The cross-engine benchmark's randomised MuJoCo set: its draws (slowest control rate,
+    low friction) still make a grasp there, all four fingers on a centred cylinder."""
+    from tactile_bullet.datasets.randomize import draw_for_task, randomized_table
+
+    table = Randomization.from_dict(randomized_table("mujoco"))
+    base = ControllerSettings(engine="mujoco")
+    seed = next(s for s in range(200) if draw_for_task(table, base, s).control_every == 2
+                and draw_for_task(table, base, s).friction < 0.7)  # fmt: skip
+    ctl = draw_for_task(table, base, seed)
+    record = simulate_grasp(*CYLINDER, Pose(), ctl)
+    assert record.controller == ctl and record.controller.engine == "mujoco"
+    assert set(record.fingers_in_contact) >= {"ff", "mf", "rf", "lf"}
+
+
 def test_benchmark_sets_randomized_twins_and_coupling_shift():
     sets = P.sets("tiny")
     twin, train = sets[P.randomized_name("tiny-demo-train")], sets["tiny-demo-train"]

@@ -220,6 +220,7 @@ INPUT_LIMITS: dict[str, int] = {
     "mesh file": 1 * GIB,
     "record file": 256 * MIB,
     "manifest": 64 * MIB,
+    "hand model": 64 * MIB,
 }
 """The largest file accepted per kind of input (bytes). Far above any real input (an hour of a
 hand's joint states at 100 Hz is ~100 MB of bag; a model a few MB), low enough that a device,

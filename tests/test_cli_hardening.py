@@ -359,3 +359,18 @@ def test_a_real_hands_recording_is_not_taken_for_a_grasp_without_contact():
     assert nothing_to_identify(simulated).startswith("no contact")
     recorded = replace(simulated, flags=(), source="recorded")
     assert nothing_to_identify(recorded) is None
+
+
+@pytest.mark.parametrize("make", ["passwd", "fifo", "missing"])
+def test_hand_model_must_be_an_mjcf_file_checked_before_mujoco_reads_it(tmp_path, capsys, make):
+    """A --hand-model that is not a regular .xml file is refused in one line, before MuJoCo
+    opens it (MuJoCo prints a decoder warning on a file without an extension, and a FIFO
+    would block it)."""
+    pytest.importorskip("mujoco")
+    path = tmp_path / ("hand" if make == "passwd" else "hand.xml")
+    if make == "passwd":
+        path.write_text("root:x:0:0:root:/root:/bin/bash\n")
+    elif make == "fifo":
+        os.mkfifo(path)
+    err = run_error(capsys, ["grasp", "--shape", "sphere", "--hand-model", str(path)])
+    assert "hand model" in err or "MJCF" in err

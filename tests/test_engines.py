@@ -102,6 +102,28 @@ def test_same_size_at_another_pose_matches_a_fresh_compile():
     assert warm.metadata()["controller"]["engine"] == "mujoco"
 
 
+def test_a_reused_model_forgets_the_last_grasps_friction_and_force_limits():
+    """A grasp reuses the last finished grasp's model and data of its size: what that grasp
+    set (friction, motor force limits, joint state) must not leak into the next record, and
+    two engines alive at once must not share a model."""
+    from tactile_bullet.plugins import get_engine
+    from tactile_bullet.sim.engines.mujoco import clear_compiled
+    from tactile_bullet.sim.grasp import simulate_grasp
+
+    ctl = ControllerSettings(engine="mujoco")
+    simulate_grasp("sphere", None, Pose(), ControllerSettings(engine="mujoco", friction=0.3,
+                                                              motor_force=0.6))  # fmt: skip
+    warm = simulate_grasp("sphere", None, Pose(), ctl)
+    clear_compiled()
+    cold = simulate_grasp("sphere", None, Pose(), ctl)
+    assert warm.equals(cold)
+    spec = SHAPES["sphere"]
+    factory = get_engine("mujoco")
+    with factory(spec, spec.resolve(None), Pose(), ctl) as a:
+        with factory(spec, spec.resolve(None), Pose(), ctl) as b:
+            assert a.model is not b.model and a.data is not b.data
+
+
 def test_unknown_engine_exits_2_listing_the_installed_ones(capsys):
     err = run_error(capsys, ["grasp", "--shape", "sphere", "--engine", "ode"])
     assert "unknown engine 'ode'" in err and "bullet, mujoco" in err
@@ -127,6 +149,27 @@ def test_sweep_engine_is_checked_before_any_grasp(tmp_path):
     with pytest.raises(UsageError, match="disagree"):
         Sweep.from_dict({"engine": "mujoco", "controller": {"engine": "bullet"},
                          "shapes": [{"name": "sphere"}]})  # fmt: skip
+
+
+def test_sweep_hand_model_is_checked_before_any_grasp(tmp_path):
+    """A sweep's [controller] hand_model that is missing, not MJCF, or given without the
+    mujoco engine is refused when the sweep is read; before, every grasp failed on its own
+    and generate ended with status 0 and an empty dataset."""
+    from tactile_bullet.datasets.sweeps import Sweep
+    from tactile_bullet.errors import UsageError
+
+    shapes = [{"name": "sphere"}]
+    missing = str(tmp_path / "missing.xml")
+    with pytest.raises(UsageError, match="missing.xml"):
+        Sweep.from_dict({"engine": "mujoco", "controller": {"hand_model": missing},
+                         "shapes": shapes})  # fmt: skip
+    with pytest.raises(UsageError, match="mujoco engine"):
+        Sweep.from_dict({"controller": {"hand_model": missing}, "shapes": shapes})
+    text = tmp_path / "hand.txt"
+    text.write_text("<mujoco/>")
+    with pytest.raises(UsageError, match="MJCF"):
+        Sweep.from_dict({"engine": "mujoco", "controller": {"hand_model": str(text)},
+                         "shapes": shapes})  # fmt: skip
 
 
 def test_verify_says_when_records_mix_engines(tmp_path, capsys):

@@ -203,3 +203,20 @@ def test_rotation_from_the_grasp_alone_follows_a_turned_cylinder():
         assert family == "cylinder"
         assert read[deg] == pytest.approx(deg, abs=3.0)
     assert read[20] - read[0] > 15
+
+
+def test_rotation_estimate_within_its_error_of_the_range_is_clipped_not_withheld(monkeypatch):
+    """An unrotated object read at -1 deg gets 0 deg (the lines' own error is ~2 deg); a
+    reading far outside the calibrated range is still withheld with the reason."""
+    from tactile_bullet.perception import summary
+
+    cal = summary.load_calibration()
+    if cal is None:
+        pytest.skip("no rotation calibration installed")
+    lo, hi = cal.range_deg
+    for raw, expected in ((lo - 1.0, lo), (hi + 2.0, hi), (lo + 5.0, lo + 5.0)):
+        monkeypatch.setattr(summary, "estimate_rotation_deg", lambda *_a, v=raw: v)
+        assert summary.calibrated_estimate(0.0, cal, "cylinder") == (expected, None)
+    monkeypatch.setattr(summary, "estimate_rotation_deg", lambda *_a: 95.0)
+    value, why = summary.calibrated_estimate(0.0, cal, "cylinder")
+    assert value is None and "outside the calibrated" in why

@@ -46,6 +46,7 @@ SUBSTITUTIONS: tuple[tuple[str, str, str], ...] = (
         "--classifier svm,som",
         "three neural-forest fits in compare; the sequential example still trains forests",
     ),
+    ("--preset randomized", "--config small-randomized.toml", "1,143 grasps -> 6 (2 shapes)"),
     (
         "tactile-bullet sequential ",
         "tactile-bullet sequential --orders 1 --n-updates 20 --recalibration 5 ",
@@ -68,6 +69,21 @@ rotation_deg = [90]
 """
 """The stand-in for ``--preset sequential``: three of chapter 4's classes (one turned 90 deg),
 three grasps each, the fewest the experiment's train/test split accepts."""
+
+SMALL_RANDOMIZED = """\
+name = "small-randomized"
+mode = "random"
+samples = 3
+[[shapes]]
+name = "sphere"
+[[shapes]]
+name = "cylinder"
+[randomize]
+friction = { min = 0.5, max = 1.2 }
+coupling = ["j2-first", "equal-torque", "distal-first"]
+"""
+"""The stand-in for ``--preset randomized``: two shapes, three grasps each, the hand's friction
+and tendon rule drawn per grasp (what ``train --training randomized`` checks for)."""
 
 BASH_PRELUDE = """\
 set -euo pipefail
@@ -159,6 +175,7 @@ def test_licence_and_citation_agree_with_the_package():
 def test_readme_examples_run_in_order(tmp_path):
     blocks = substituted(readme_blocks(README.read_text()))
     (tmp_path / "small-sequential.toml").write_text(SMALL_SEQUENTIAL)
+    (tmp_path / "small-randomized.toml").write_text(SMALL_RANDOMIZED)
     env = {**os.environ, "TB_PYTHON": sys.executable, "MPLBACKEND": "Agg"}
     env.pop("TACTILE_BULLET_PLUGINS", None)
     for number, (language, code) in enumerate(blocks):

@@ -229,7 +229,8 @@ def _print_summary(doc: dict) -> None:
 
     params = ", ".join(f"{k}={v:g} m" for k, v in doc["params"].items())
     print(f"{doc['shape']} ({params}), offset {doc['pose']['offset']} m, "
-          f"rotation {doc['pose']['rotation_deg']:g} deg, {doc['mode']} mode")  # fmt: skip
+          f"rotation {doc['pose']['rotation_deg']:g} deg, {doc['mode']} mode, "
+          f"{doc['engine']} engine")  # fmt: skip
     print(_answer_line(doc))
     print("detail:")
     sig = doc["signature"]
@@ -249,7 +250,9 @@ def _print_summary(doc: dict) -> None:
     if temporal:
         dyn = temporal["dynamic"]
         off = ", ".join(dyn["non_contact"]) or "none"
-        print(f"  fingers off the object (dynamic detector): {off}, all known at "
+        # its thresholds were fitted on bullet grasps: say so where another engine made this one
+        tuned = "" if doc["engine"] == "bullet" else ", thresholds fitted on bullet grasps"
+        print(f"  fingers off the object (dynamic detector{tuned}): {off}, all known at "
               f"{dyn['decided_at_s']:.2f} s")  # fmt: skip
     print(f"  simulated {doc['sim_time_s']:.3f} s in {doc['steps']} steps, "
           f"wall time {doc['wall_time_s']:.3f} s")  # fmt: skip

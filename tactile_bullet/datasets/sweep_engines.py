@@ -24,13 +24,23 @@ def merge_engine(data: Mapping[str, Any], controller_data: Any, source: str) -> 
 
 
 def check_engine(controller, source: str) -> None:
-    """An unknown or uninstalled engine is refused before any grasp, naming the sweep."""
+    """An unknown or uninstalled engine, or a ``hand_model`` that is not a usable MJCF Shadow
+    hand for mujoco, is refused before any grasp, naming the sweep (otherwise every grasp
+    would fail on its own and the run would end 'successfully' with nothing in it)."""
+    if controller.hand_model is not None and controller.engine != "mujoco":
+        raise UsageError(
+            f"{source}: hand_model is an MJCF model for the mujoco engine, not {controller.engine}"
+        )
     if controller.engine == "bullet":
         return
     from ..plugins import get_engine
 
     try:
         get_engine(controller.engine)
+        if controller.hand_model is not None:
+            from ..sim.engines.mujoco_hand import load_hand_spec
+
+            load_hand_spec(controller.hand_model)
     except UsageError as exc:
         raise UsageError(f"{source}: {exc}") from None
 

@@ -162,8 +162,8 @@ def plot(results: list[dict], matrix: np.ndarray, names: list[str], out: Path) -
     fig, ax = plt.subplots(figsize=(5.5, 4.5))
     measured = np.isfinite(matrix)
     limit = max(0.05, float(np.abs(matrix[measured]).max())) if measured.any() else 0.05
-    cmap = plt.get_cmap("RdBu").copy()
-    cmap.set_bad("0.8")  # "not measured" (a class with itself, pairs no order met) is no 0
+    # "not measured" (a class with itself, pairs no order met) is grey, not the colour of 0
+    cmap = plt.get_cmap("RdBu").with_extremes(bad="0.8")
     image = ax.imshow(np.ma.masked_invalid(matrix), cmap=cmap, vmin=-limit, vmax=limit)
     for a, b in zip(*np.nonzero(~measured), strict=True):
         ax.text(b, a, "-", ha="center", va="center", color="0.4", fontsize=8)

@@ -568,6 +568,8 @@ def demo(
         "by_position": result.get("by_position", {}),
         "by_rotation": result.get("by_rotation", {}),
         "bins": result.get("bins", {}),
+        "ambiguous": result.get("ambiguous"),
+        "engine": engine,
         "train_records": len(train_records),
         "test_records": len(test_records),
         "refused_poses": len(train_set.refused) + len(test_set.refused),

@@ -85,6 +85,12 @@ def _end_to_end(record, cal) -> dict:
     return {"rotation_deg": deg, "rotation_family": family}
 
 
+RANGE_SLACK_DEG = 3.0
+"""How far outside the calibrated range an estimate is still read as the range's end: the lines'
+own error is about 2 deg (at most 3.7 deg, docs/rotation.md), so -1 deg on an unrotated object
+is 0 deg, not an extrapolation; 95 deg on an off-centre sphere is still withheld."""
+
+
 def calibrated_estimate(alpha_deg: float, cal, shape: str) -> tuple[float | None, str | None]:
     """The rotation estimate (deg) and None, or None and why it is withheld: the calibration
     lines were fitted on rotations within ``cal.range_deg`` only, and outside it an
@@ -95,6 +101,6 @@ def calibrated_estimate(alpha_deg: float, cal, shape: str) -> tuple[float | None
     if value is None:
         return None, f"no calibration line for the nearest pattern ({shape})"
     lo, hi = cal.range_deg
-    if not lo <= value <= hi:
+    if not lo - RANGE_SLACK_DEG <= value <= hi + RANGE_SLACK_DEG:
         return None, f"{value:.0f} deg is outside the calibrated {lo:g}-{hi:g} deg"
-    return value, None
+    return min(max(value, lo), hi), None

@@ -65,9 +65,11 @@ def load_hand_spec(path: str | Path):
     or the first missing joint, actuator or the palm body otherwise."""
     import mujoco
 
-    path = Path(path)
-    if not path.is_file():
-        raise UsageError(f"--hand-model {path} does not exist")
+    from ...files import input_path
+
+    path = input_path(path, "hand model")  # stat only: a FIFO or device is never opened
+    if path.suffix.lower() != ".xml":
+        raise UsageError(f"--hand-model {path} is not an MJCF model file (.xml)")
     try:
         spec = mujoco.MjSpec.from_file(str(path))
         model = spec.compile()

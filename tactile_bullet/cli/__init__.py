@@ -33,6 +33,7 @@ COMMANDS: tuple[str, ...] = (
     "evaluate",
     "compare",
     "benchmark",
+    "calibrate",
     "identify",
     "demo",
     "sequential",
@@ -126,8 +127,9 @@ def main(argv: list[str] | None = None) -> int:
         previous = None
     try:
         from ..console import log_lines, reporting
+        from .common import hand_calibration_scope
 
-        with reporting(log_lines(bool(getattr(args, "json", False)))):
+        with reporting(log_lines(bool(getattr(args, "json", False)))), hand_calibration_scope(args):
             return int(args.run(args) or 0)
     except UsageError as exc:
         print(f"tactile-bullet {args.command}: error: {exc}", file=sys.stderr)

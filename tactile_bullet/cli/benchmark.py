@@ -60,6 +60,9 @@ def add_parser(sub) -> None:
     parser.add_argument("--seed", type=seed_number, default=0, help="seed of the perturbations")
     add_engine_flag(parser)
     parser.add_argument("--json", action="store_true", help="print the rows as one JSON list")
+    from .common import add_hand_calibration_flag
+
+    add_hand_calibration_flag(parser)
     parser.set_defaults(run=run)
 
 

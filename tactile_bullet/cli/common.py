@@ -4,9 +4,10 @@
 from __future__ import annotations
 
 import argparse
+import contextlib
 import math
 import os
-from collections.abc import Mapping, Sequence
+from collections.abc import Iterator, Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -232,3 +233,37 @@ def count(lo: int, hi: int | None = None):
 
 MAX_WORKERS = 256
 """More local processes than this is a typo, not a machine: each one holds a PyBullet copy."""
+
+
+def add_hand_calibration_flag(parser) -> None:
+    """``--hand-calibration``: the shape fit's coefficients for the user's hand."""
+    parser.add_argument(
+        "--hand-calibration", metavar="FILE.toml",
+        help="the shape fit's coefficients for your hand, written by `tactile-bullet calibrate` "
+        "(used by every shape fit the command runs)",
+    )  # fmt: skip
+
+
+@contextlib.contextmanager
+def hand_calibration_scope(args) -> Iterator[None]:
+    """Load ``--hand-calibration`` (a bad file is refused here, before any work) and put its
+    coefficients in force for the whole command."""
+    path = getattr(args, "hand_calibration", None)
+    if not path:
+        yield
+        return
+    from ..perception.shape_model import use_calibration
+    from ..realhand.hand_calibration import load
+
+    hand = load(path)
+    # what the JSON of identify and evaluate report as their hand_calibration block
+    args.hand_calibration_info = {"file": str(path), **hand.to_dict()}
+    with use_calibration(hand.calibration):
+        yield
+
+
+def note_hand_calibration(args, doc: dict) -> None:
+    """Say in a JSON document which hand calibration its answers used (none: no key)."""
+    info = getattr(args, "hand_calibration_info", None)
+    if info is not None:
+        doc["hand_calibration"] = info

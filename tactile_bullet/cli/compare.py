@@ -32,6 +32,9 @@ def add_parser(sub) -> None:
     )
     parser.add_argument("--seed", type=seed_number, default=0, help="seed of the split")
     parser.add_argument("--json", action="store_true", help="print one JSON document")
+    from .common import add_hand_calibration_flag
+
+    add_hand_calibration_flag(parser)
     parser.set_defaults(run=run)
 
 

@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from .common import add_force_flag, emit_json
+from .common import add_force_flag, emit_json, note_hand_calibration
 from .data_args import add_allow_partial, read_data, report_skipped
 
 
@@ -25,6 +25,9 @@ def add_parser(sub) -> None:
     )
     add_force_flag(parser, "report files")
     parser.add_argument("--json", action="store_true", help="print one JSON document")
+    from .common import add_hand_calibration_flag
+
+    add_hand_calibration_flag(parser)
     parser.set_defaults(run=run)
 
 
@@ -46,6 +49,7 @@ def run(args: argparse.Namespace) -> int:
     loaded = read_data(args.data, args)
     doc = evaluate(model, loaded.records)
     report_skipped(loaded, args, doc)
+    note_hand_calibration(args, doc)
     if report is not None:
         written = write_evaluation_report(doc, report)
         doc["report"] = str(report)

@@ -10,6 +10,7 @@ from .common import (
     add_engine_flag,
     emit_json,
     engine_settings,
+    note_hand_calibration,
     parse_key_values,
     parse_number,
     parse_offset,
@@ -62,6 +63,9 @@ def add_parser(sub) -> None:
     add_engine_flag(parser, hand_model=True)
     parser.add_argument("--json", action="store_true", help="print one JSON document")
     add_recording_options(parser)
+    from .common import add_hand_calibration_flag
+
+    add_hand_calibration_flag(parser)
     parser.set_defaults(run=run)
 
 
@@ -108,6 +112,7 @@ def run(args: argparse.Namespace) -> int:
         "fingers_in_contact": list(record.fingers_in_contact),
         "flags": list(record.flags),
     }
+    note_hand_calibration(args, doc)
     if args.json:
         emit_json(doc)
     elif doc["shape"] is None:

@@ -35,8 +35,8 @@ from .shape_model import (
     Calibration,
     _chain_features,
     _sections,
+    active_calibration,
     geometric_features,
-    load_calibration,
 )
 
 OFFSET_X = (-0.02, 0.02)
@@ -258,7 +258,7 @@ def fit_family(angles, shape: str | Shape, calibration: Calibration | None = Non
     batched pattern search (every neighbour at +-step in the normalised coordinates, the step
     halved when no move helps)."""
     measured = measured_features(angles)
-    cal = load_calibration() if calibration is None else calibration
+    cal = active_calibration() if calibration is None else calibration
     fam = _resolve_family(shape)
     return _fit(measured, [fam], cal)[fam.shape.name]
 
@@ -426,7 +426,7 @@ def fit_shape(
     names = list(dict.fromkeys(families))
     if not names:
         raise UsageError("shape-fit needs at least one shape family")
-    cal = load_calibration() if calibration is None else calibration
+    cal = active_calibration() if calibration is None else calibration
     fits = _fit(measured, [_resolve_family(n) for n in names], cal)
     return ShapeFit(min(fits, key=lambda n: fits[n].score), fits)
 
@@ -452,7 +452,7 @@ def predicted_angles(
         raise UsageError(
             f"rotation must be within +-{math.degrees(ROTATION[1]):g} deg, got {rotation_deg}"
         )
-    cal = load_calibration() if calibration is None else calibration
+    cal = active_calibration() if calibration is None else calibration
     pose = np.array([[off[0], off[1], beta]])
     geo = geometric_features(fam.shape, {k: np.array([v]) for k, v in values.items()}, pose)
     return cal.apply(geo)[0]

@@ -12,7 +12,9 @@ from __future__ import annotations
 
 import json
 import math
-from collections.abc import Mapping
+from collections.abc import Iterator, Mapping
+from contextlib import contextmanager
+from contextvars import ContextVar
 from dataclasses import dataclass, field
 from functools import cache
 from importlib import resources
@@ -288,3 +290,26 @@ def load_calibration() -> Calibration:
     except (FileNotFoundError, OSError):
         return Calibration()
     return Calibration.from_dict(json.loads(text), "data/shape_fit.json")
+
+
+_ACTIVE: ContextVar[Calibration | None] = ContextVar("shape_fit_calibration", default=None)
+
+
+def active_calibration() -> Calibration:
+    """The coefficients the shape fit uses when a caller names none: a hand calibration put in
+    force by :func:`use_calibration` (``tactile-bullet calibrate``'s file), else the shipped
+    ones."""
+    return _ACTIVE.get() or load_calibration()
+
+
+@contextmanager
+def use_calibration(calibration: Calibration | None) -> Iterator[None]:
+    """Within the block, every shape fit that names no coefficients uses ``calibration`` (None:
+    the shipped ones): the classifier, the doubt cross-check and the rotation estimate all reach
+    the fit through code that does not pass coefficients along. A context variable, so a block
+    in one thread (one streaming ``Identifier``) leaves the others as they were."""
+    token = _ACTIVE.set(calibration)
+    try:
+        yield
+    finally:
+        _ACTIVE.reset(token)

@@ -89,10 +89,14 @@ class Identifier:
 
     def __init__(
         self, model, calibration: Calibration | None = None, gap_s: float = GAP_S,
-        cross_check: bool = True,
+        cross_check: bool = True, hand_calibration=None,
     ) -> None:  # fmt: skip
         self.model = model
         self.calibration = calibration
+        self.hand_calibration = hand_calibration
+        """The shape fit's coefficients for this hand (``shape_model.Calibration``, from
+        ``tactile-bullet calibrate``; None: the shipped ones), used by every shape fit this
+        identifier runs (a shape-fit model, the cross-check)."""
         self.cross_check = cross_check
         """Whether the answer at a grasp's end asks the shape fit's second opinion where the
         model's calibration wants it (``learn/doubt.py``; ~60 ms; False: the margin only)."""
@@ -111,17 +115,23 @@ class Identifier:
         calibration: str | os.PathLike | Calibration | None = None,
         gap_s: float = GAP_S,
         cross_check: bool = True,
+        hand_calibration: str | os.PathLike | Any = None,
     ) -> Identifier:
         """An identifier for a saved model file (or a loaded Model); ``calibration`` a TOML
-        path or a :class:`Calibration`; ``cross_check`` as in the constructor."""
+        path or a :class:`Calibration`; ``cross_check`` as in the constructor;
+        ``hand_calibration`` the file ``tactile-bullet calibrate`` wrote (or its loaded
+        coefficients)."""
         from ..learn.models import load_model
         from .calibration import load_calibration
+        from .hand_calibration import load as load_hand
 
+        if isinstance(hand_calibration, str | os.PathLike):
+            hand_calibration = load_hand(hand_calibration).calibration
         if isinstance(model, str | os.PathLike):
             model = load_model(model)
         if isinstance(calibration, str | os.PathLike):
             calibration = load_calibration(calibration)
-        return cls(model, calibration, gap_s, cross_check)
+        return cls(model, calibration, gap_s, cross_check, hand_calibration)
 
     def reset(self) -> None:
         """Forget every sample and grasp (a new session)."""
@@ -267,8 +277,14 @@ class Identifier:
         the grasp is over: the shape fit's cross-check adds ~60 ms then), ``rotation_deg``
         (calibrated object rotation, None where unknown), ``grasp_over``,
         and ``samples`` (messages in the grasp)."""
-        if self._cache is not None:
-            return self._cache
+        if self._cache is None:
+            from ..perception.shape_model import use_calibration
+
+            with use_calibration(self.hand_calibration):
+                self._cache = self._result()
+        return self._cache
+
+    def _result(self) -> dict[str, Any]:
         seg = self._segmenter
         record = self.current_record()
         if record is None:
@@ -292,7 +308,6 @@ class Identifier:
                 "grasp_over": over,
                 "samples": int(record.time.size),
             }
-        self._cache = doc
         return doc
 
     def _predict(self, record, decide: bool) -> tuple[str | None, dict[str, float]]:

@@ -1,0 +1,159 @@
+"""The hand calibration file ``tactile-bullet calibrate`` writes, and the known-sizes file it reads.
+
+The file is small TOML a user can read and keep beside their recordings::
+
+    version = 1
+    hand = "rh"                      # joint-name prefix of the calibrated hand ("" simulated)
+    data = "known-grasps"            # what it was fitted on
+    [coefficients]                   # the shape fit's correction (perception/shape_model.py)
+    intercept = [[...4], [...4]]     # rows J3, J0; columns ff, mf, rf, lf (rad)
+    gain = ...; side = ...; sigma = ...; loss_scale = 2.0; penalty = 0.0
+    [offsets_deg]                    # intercepts' change from the shipped ones: the joint
+    J3 = [...4]; J0 = [...4]         # offsets the data allowed (informational)
+    [grasps_per_shape]
+    cone = 2
+    [report]                         # how the pull toward the shipped coefficients was chosen
+    ...
+
+Every field is checked on load (a wrong version, a missing table, coefficients that are not
+2 x 4 finite numbers, a gain outside 0.2-5): a damaged file is refused on one line, never used.
+The known-sizes file names each calibration object's sizes by shape (m)::
+
+    [cylinder]
+    radius = 0.04
+    length = 0.2
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+from collections.abc import Mapping
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import UsageError
+from ..files import read_toml, write_bytes_atomic
+from ..perception.shape_model import Calibration, load_calibration
+
+VERSION = 1
+WHAT = "calibration file"
+"""The input kind (``files.INPUT_LIMITS``): a hand calibration is a few hundred bytes."""
+GAIN_RANGE = (0.2, 5.0)
+"""A gain outside this is no hand's: the fit ran away or the file was edited wrongly."""
+_KEYS = {"version", "hand", "data", "coefficients", "offsets_deg", "grasps_per_shape", "report"}
+
+
+@dataclass(frozen=True)
+class HandCalibration:
+    """A loaded hand calibration: the coefficients and what the file says about them."""
+
+    calibration: Calibration
+    hand: str
+    data: str
+    grasps_per_shape: dict[str, int]
+    report: dict
+
+    def to_dict(self) -> dict:
+        """The ``hand_calibration`` block of JSON output (``docs/json.md``)."""
+        return {"hand": self.hand, "data": self.data, "grasps_per_shape": self.grasps_per_shape,
+                "strength": self.report.get("strength")}  # fmt: skip
+
+
+def _toml_value(value) -> str:
+    """A TOML value: numbers, strings and lists of them share JSON's spelling."""
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    if isinstance(value, float) and not math.isfinite(value):
+        raise ValueError("a calibration file holds finite numbers only")
+    if isinstance(value, np.ndarray):
+        value = value.tolist()
+    return json.dumps(value)
+
+
+def render(cal: Calibration, hand: str, data: str, counts: Mapping[str, int], report: dict) -> str:
+    """The file's text (see the module docstring)."""
+    shipped = load_calibration()
+    lines = ["# tactile-bullet calibrate: the shape fit's coefficients for one hand",
+             f"version = {VERSION}", f"hand = {_toml_value(hand)}", f"data = {_toml_value(data)}",
+             "", "[coefficients]"]  # fmt: skip
+    for key, value in cal.to_dict().items():
+        lines.append(f"{key} = {_toml_value(value)}")
+    lines += ["", "[offsets_deg]"]
+    change = np.degrees(cal.intercept - shipped.intercept)
+    lines += [f"J3 = {_toml_value(np.round(change[0], 3))}",
+              f"J0 = {_toml_value(np.round(change[1], 3))}", "", "[grasps_per_shape]"]  # fmt: skip
+    lines += [f"{name} = {int(n)}" for name, n in counts.items()]
+    lines += ["", "[report]"]
+    for key, value in report.items():
+        if key == "candidates":
+            continue
+        lines.append(f"{key} = {_toml_value('shipped' if value is None else value)}")
+    for row in report.get("candidates", []):
+        lines += ["", "[[report.candidates]]"]
+        for key, value in row.items():
+            lines.append(f"{key} = {_toml_value('shipped' if value is None else value)}")
+    return "\n".join(lines) + "\n"
+
+
+def write(path: str | os.PathLike, text: str) -> Path:
+    return write_bytes_atomic(path, text.encode("utf-8"), "hand calibration")
+
+
+def load(path: str | os.PathLike) -> HandCalibration:
+    """A hand calibration file, every field checked; UsageError (one line) otherwise."""
+    doc = read_toml(path, WHAT)
+    where = f"hand calibration {path}"
+    extra = sorted(set(doc) - _KEYS)
+    if extra:
+        raise UsageError(f"{where}: unknown key {extra[0]!r} (keys: {', '.join(sorted(_KEYS))})")
+    if doc.get("version") != VERSION:
+        raise UsageError(f"{where}: version must be {VERSION}, got {doc.get('version')!r}")
+    for key in ("hand", "data"):
+        if not isinstance(doc.get(key), str):
+            raise UsageError(f"{where}: {key} must be a string")
+    for key in ("coefficients", "grasps_per_shape", "report"):
+        if not isinstance(doc.get(key), dict):
+            raise UsageError(f"{where}: the [{key}] table is missing")
+    coefficients = doc["coefficients"]
+    cal = Calibration.from_dict(coefficients, where)
+    lo, hi = GAIN_RANGE
+    if not np.all((cal.gain >= lo) & (cal.gain <= hi)):
+        raise UsageError(f"{where}: every gain must be within {lo:g}-{hi:g}, got {cal.gain}")
+    from ..perception.shape_fit import fitted_shapes
+
+    counts = doc["grasps_per_shape"]
+    for name, n in counts.items():
+        if name not in fitted_shapes():
+            raise UsageError(f"{where}: grasps_per_shape names {name!r}, which is no fitted shape")
+        if isinstance(n, bool) or not isinstance(n, int) or n < 1:
+            raise UsageError(f"{where}: grasps_per_shape.{name} must be a positive integer")
+    if len(counts) < 2:
+        raise UsageError(f"{where}: grasps_per_shape must name at least two shapes")
+    return HandCalibration(cal, doc["hand"], doc["data"], dict(counts), dict(doc["report"]))
+
+
+def load_sizes(path: str | os.PathLike) -> dict[str, dict[str, float]]:
+    """Known sizes by shape (m) from a TOML file of ``[shape]`` tables; each table's values are
+    resolved (defaults filled, ranges checked) as a grasp's would be."""
+    from ..objects.shapes import check_consistent
+    from ..perception.shape_fit import _resolve_family
+
+    doc = read_toml(path, "config file")
+    if not doc:
+        raise UsageError(f"sizes file {path} names no shape")
+    out = {}
+    for name, table in doc.items():
+        if not isinstance(table, dict):
+            raise UsageError(f"sizes file {path}: {name} must be a table of sizes ([{name}])")
+        for key, value in table.items():
+            if isinstance(value, bool) or not isinstance(value, int | float):
+                raise UsageError(f"sizes file {path}: {name}.{key} must be a number (m)")
+        shape = _resolve_family(name).shape
+        values = shape.resolve(table)
+        check_consistent(name, values)
+        out[name] = {k: float(v) for k, v in values.items()}
+    return out

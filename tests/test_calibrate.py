@@ -1,0 +1,249 @@
+"""A hand calibrated from grasps of known shape (issue 21 item 3): ``perception/hand_fit.py``,
+the file ``tactile-bullet calibrate`` writes (``realhand/hand_calibration.py``), and
+``--hand-calibration`` on the commands and the streaming ``Identifier``.
+
+The "other hand" here is the shape fit's own forward model with other per-finger offsets (J3 and
+J0 read 2-7 deg off, a different sign per finger, as a real hand's sensors and tendons give), so
+the tests need no simulator and know the truth. (A shift shared by every finger is mostly taken
+up by the fitted sizes, so labels alone cannot tell it apart from a smaller object.)
+"""
+
+from __future__ import annotations
+
+import json
+import re
+from dataclasses import replace
+
+import numpy as np
+import pytest
+from cli_helpers import run_error
+from synthetic import make_record
+
+from tactile_bullet.cli import main
+from tactile_bullet.errors import UsageError
+from tactile_bullet.perception.hand_fit import fit_hand
+from tactile_bullet.perception.shape_fit import fit_family, predicted_angles
+from tactile_bullet.perception.shape_model import load_calibration, use_calibration
+from tactile_bullet.realhand.hand_calibration import load, load_sizes, render, write
+
+SHIPPED = load_calibration()
+OFFSETS_RAD = np.array([[0.06, -0.04, 0.05, -0.05], [-0.1, 0.1, -0.08, 0.12]])
+OTHER = replace(SHIPPED, intercept=SHIPPED.intercept + OFFSETS_RAD)
+"""The other hand: the same geometry, each finger's J3 and J0 read with its own offset."""
+
+RADII = (0.038, 0.052, 0.044, 0.04, 0.048, 0.042)
+OFFSETS = ((0.0, 0.0), (0.006, -0.004), (-0.005, 0.003))
+
+
+def other_hand_grasps(which: slice, cal=OTHER):
+    """(angles 3 x 4, shape, sizes) of grasps by the hand ``cal`` (the other one by default):
+    J3, J0 as J2, J1 = 0; spheres and cylinders of radii ``RADII[which]``."""
+    out = []
+    for i, radius in list(enumerate(RADII))[which]:
+        cylinder = {"radius": radius - 0.004, "length": 0.15}
+        for shape, params in (("sphere", {"radius": radius}), ("cylinder", cylinder)):
+            j3, j0 = predicted_angles(shape, params, OFFSETS[i % 3], cal)
+            out.append((np.stack([j3, j0, np.zeros(4)]), shape, params))
+    return out
+
+
+def own_family_residual(grasps, cal) -> float:
+    return float(np.mean([fit_family(a, s, cal).residual for a, s, _ in grasps]))
+
+
+def test_a_refit_explains_the_other_hands_unseen_grasps_better_than_the_shipped_coefficients():
+    known = other_hand_grasps(slice(0, 4))
+    hand = fit_hand([a for a, _, _ in known], [s for _, s, _ in known], strengths=(1.0,), folds=2)
+    unseen = other_hand_grasps(slice(4, 6))
+    assert not hand.kept_start
+    assert hand.grasps_per_shape == {"sphere": 4, "cylinder": 4}
+    assert own_family_residual(unseen, hand.calibration) < 0.5 * own_family_residual(
+        unseen, SHIPPED
+    )
+    # each finger's fitted offset has that hand's sign
+    shift = hand.calibration.intercept - SHIPPED.intercept
+    assert np.array_equal(np.sign(shift), np.sign(OFFSETS_RAD))
+
+
+def test_known_sizes_fit_only_the_pose_and_still_recover_the_hand():
+    known = other_hand_grasps(slice(0, 4))
+    hand = fit_hand([a for a, _, _ in known], [s for _, s, _ in known],
+                    sizes=[z for _, _, z in known], strengths=(1.0,), folds=2)  # fmt: skip
+    assert hand.report["known_sizes"] == 8
+    unseen = other_hand_grasps(slice(4, 6))
+    assert own_family_residual(unseen, hand.calibration) < 0.5 * own_family_residual(
+        unseen, SHIPPED
+    )
+
+
+def test_the_shipped_hand_itself_keeps_its_coefficients_in_effect():
+    known = other_hand_grasps(slice(0, 4), SHIPPED)
+    hand = fit_hand([a for a, _, _ in known], [s for _, s, _ in known], strengths=(1.0,), folds=2)
+    for angles, shape, _ in other_hand_grasps(slice(4, 6), SHIPPED):
+        fit = fit_family(angles, shape, hand.calibration)
+        assert np.degrees(fit.residual) < 1.0
+
+
+@pytest.mark.parametrize(
+    ("angles", "shapes", "sizes", "message"),
+    [
+        ([], [], None, "at least one grasp"),
+        ([np.zeros((3, 4))] * 2, ["sphere"], None, "2 grasps but 1 shape"),
+        ([np.zeros((3, 4))] * 2, ["sphere", "sphere"], None, "at least two shapes"),
+        ([np.zeros((3, 4))] * 2, ["sphere", "teapot"], None, "no model of it"),
+        ([np.zeros((3, 4))] * 2, ["sphere", "cone"], [None], "2 grasps but 1 entries"),
+        ([np.zeros((3, 4))] * 2, ["sphere", "cone"], [{"radius": 5.0}, None], "radius"),
+    ],
+)
+def test_bad_calibration_inputs_are_refused_before_any_fit(angles, shapes, sizes, message):
+    with pytest.raises(UsageError, match=message):
+        fit_hand(angles, shapes, sizes)
+
+
+def test_use_calibration_changes_the_fit_only_inside_its_block():
+    angles = other_hand_grasps(slice(0, 1))[0][0]
+    before = fit_family(angles, "sphere").residual
+    with use_calibration(OTHER):
+        inside = fit_family(angles, "sphere").residual
+    assert inside < before
+    assert fit_family(angles, "sphere").residual == before
+
+
+# --- the file ---------------------------------------------------------------------------------
+
+
+def _file(tmp_path, cal=OTHER):
+    report = {"strength": 2.0, "candidates": [{"strength": None, "held_out_right": 3}]}
+    text = render(cal, "rh", "known", {"sphere": 2, "cylinder": 2}, report)
+    return write(tmp_path / "hand.toml", text)
+
+
+def test_the_file_round_trips_its_coefficients(tmp_path):
+    hand = load(_file(tmp_path))
+    np.testing.assert_allclose(hand.calibration.intercept, OTHER.intercept)
+    np.testing.assert_allclose(hand.calibration.gain, OTHER.gain)
+    assert hand.hand == "rh" and hand.grasps_per_shape == {"sphere": 2, "cylinder": 2}
+    assert hand.report["candidates"][0]["strength"] == "shipped"
+
+
+@pytest.mark.parametrize(
+    ("edit", "message"),
+    [
+        (lambda t: t.replace("version = 1", "version = 7"), "version must be 1"),
+        (lambda t: t.replace("[grasps_per_shape]", "[counts]"), "unknown key 'counts'"),
+        (lambda t: re.sub(r"(?m)^gain = .*$", "gain = [[1.0, 1.0]]", t), "gain must be 2 x 4"),
+        (lambda t: re.sub(r"(?m)^sigma = .*$", "sigma = [[0.0, 0, 0, 0], [1, 1, 1, 1]]", t),
+         "sigma must be positive"),
+        (lambda t: t.replace("sphere = 2", "sphere = 0"), "positive integer"),
+        (lambda t: t.replace("sphere = 2", "teapot = 2"), "no fitted shape"),
+        (lambda t: t[: len(t) // 3], "not valid TOML"),
+    ],
+)
+def test_a_damaged_file_is_refused_on_one_line(tmp_path, edit, message):
+    path = _file(tmp_path)
+    path.write_text(edit(path.read_text()))
+    with pytest.raises(UsageError, match=message):
+        load(path)
+
+
+def test_a_gain_far_from_any_hand_is_refused(tmp_path):
+    path = _file(tmp_path, replace(OTHER, gain=OTHER.gain * 0.05))
+    with pytest.raises(UsageError, match="within 0.2-5"):
+        load(path)
+
+
+def test_known_sizes_are_checked_as_a_grasps_would_be(tmp_path):
+    path = tmp_path / "sizes.toml"
+    path.write_text("[cylinder]\nradius = 0.04\nlength = 0.15\n")
+    assert load_sizes(path) == {"cylinder": {"radius": 0.04, "length": 0.15}}
+    path.write_text("[cylinder]\nradius = 4.0\n")
+    with pytest.raises(UsageError, match="radius"):
+        load_sizes(path)
+    path.write_text("[teapot]\nradius = 0.04\n")
+    with pytest.raises(UsageError, match="no model of shape 'teapot'"):
+        load_sizes(path)
+
+
+# --- the command line -------------------------------------------------------------------------
+
+
+@pytest.fixture(scope="module")
+def known(tmp_path_factory):
+    """A record folder of 2 spheres and 2 cylinders from the wrapping theory."""
+    from tactile_bullet.records import save_record
+
+    root = tmp_path_factory.mktemp("known")
+    rng = np.random.default_rng(3)
+    for i, (shape, params) in enumerate(
+        [("sphere", {"radius": 0.04}), ("sphere", {"radius": 0.05}),
+         ("cylinder", {"radius": 0.035, "length": 0.15}),
+         ("cylinder", {"radius": 0.045, "length": 0.15})]
+    ):  # fmt: skip
+        save_record(make_record(shape, params, rng, noise=0.01), root / f"{i}-{shape}.npz")
+    return root
+
+
+def test_calibrate_writes_a_file_identify_can_use(known, tmp_path, capsys):
+    from test_json_docs import check
+
+    out = tmp_path / "hand.toml"
+    assert main(["calibrate", "--data", str(known), "--out", str(out), "--json"]) == 0
+    doc = json.loads(capsys.readouterr().out)
+    check("calibrate", doc)
+    assert doc["grasps_per_shape"] == {"sphere": 2, "cylinder": 2}
+    assert load(out).grasps_per_shape == {"sphere": 2, "cylinder": 2}
+    model = tmp_path / "m.npz"
+    assert main(["train", "--data", str(known), "--descriptor", "raw-joints",
+                 "--classifier", "shape-fit", "--out", str(model)]) == 0  # fmt: skip
+    capsys.readouterr()
+    assert main(["identify", "--model", str(model), "--record", str(next(known.glob("0-*"))),
+                 "--hand-calibration", str(out)]) == 0  # fmt: skip
+    assert "sphere" in capsys.readouterr().out
+    # the JSON says which hand calibration answered, so a result can be traced to it
+    assert main(["identify", "--model", str(model), "--record", str(next(known.glob("0-*"))),
+                 "--hand-calibration", str(out), "--json"]) == 0  # fmt: skip
+    used = json.loads(capsys.readouterr().out)["hand_calibration"]
+    assert used["file"] == str(out) and used["grasps_per_shape"] == {"sphere": 2, "cylinder": 2}
+    assert main(["evaluate", "--model", str(model), "--data", str(known),
+                 "--hand-calibration", str(out), "--json"]) == 0  # fmt: skip
+    assert json.loads(capsys.readouterr().out)["hand_calibration"]["file"] == str(out)
+
+
+def test_calibrate_never_overwrites_unasked_and_checks_sizes_first(known, tmp_path, capsys):
+    out = tmp_path / "hand.toml"
+    out.write_text("keep me")
+    assert "already exists" in run_error(capsys, ["calibrate", "--data", str(known), "--out",
+                                                  str(out)])  # fmt: skip
+    assert out.read_text() == "keep me"
+    sizes = tmp_path / "sizes.toml"
+    sizes.write_text("[cone]\nradius = 0.04\n")
+    err = run_error(capsys, ["calibrate", "--data", str(known), "--out", str(tmp_path / "n.toml"),
+                             "--sizes", str(sizes)])  # fmt: skip
+    assert "no grasp of" in err and not (tmp_path / "n.toml").exists()
+
+
+@pytest.mark.parametrize("command", ["identify", "evaluate", "compare", "benchmark"])
+def test_a_bad_hand_calibration_is_refused_before_any_work(tmp_path, capsys, command):
+    bad = tmp_path / "hand.toml"
+    bad.write_text("version = 2\n")
+    argv = {
+        "identify": ["identify", "--model", "m.npz", "--shape", "sphere"],
+        "evaluate": ["evaluate", "--model", "m.npz", "--data", "d"],
+        "compare": ["compare", "--data", "d"],
+        "benchmark": ["benchmark", "--quick", "--out", str(tmp_path / "b")],
+    }[command]
+    assert "version must be 1" in run_error(capsys, [*argv, "--hand-calibration", str(bad)])
+
+
+def test_the_identifier_loads_a_hand_calibration(tmp_path, known, capsys):
+    from tactile_bullet.realhand.streaming import Identifier
+
+    model = tmp_path / "m.npz"
+    assert main(["train", "--data", str(known), "--descriptor", "raw-joints",
+                 "--classifier", "shape-fit", "--out", str(model)]) == 0  # fmt: skip
+    ident = Identifier.load(model, hand_calibration=_file(tmp_path))
+    np.testing.assert_allclose(ident.hand_calibration.intercept, OTHER.intercept)
+    bad = tmp_path / "bad.toml"
+    bad.write_text("version = 1\n")
+    with pytest.raises(UsageError, match="hand calibration"):
+        Identifier.load(model, hand_calibration=bad)

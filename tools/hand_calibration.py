@@ -1,0 +1,76 @@
+"""Accuracy of the shape fit calibrated from a few grasps of known shape (issue 21 item 3).
+
+Reads grasps made on one hand (a MuJoCo set, a shifted simulator, an imported recording with a
+``shape`` column), splits each shape's grasps into a calibration pool (the first half) and a
+test set (the rest), and prints the shape fit's accuracy on the test set with: the shipped
+Bullet coefficients, no calibration at all (the geometry from the hand's sheet alone: intercept
+0, gain 1) and coefficients fitted by ``perception.hand_fit.fit_hand`` (what ``tactile-bullet
+calibrate`` runs) from 1, 2, 5 and 10 grasps per shape of the pool (labels only; sizes and
+poses fitted; ``--known-sizes``: the records' true sizes given, poses fitted), each count drawn
+``--draws`` times.
+
+Usage: python tools/hand_calibration.py --data DIR [--draws 2] [--counts 1,2,5,10] [--known-sizes]
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parent.parent
+sys.path.insert(0, str(ROOT))
+
+from tactile_bullet.experiments.workflow import records_from  # noqa: E402
+from tactile_bullet.perception.hand_fit import fit_hand  # noqa: E402
+from tactile_bullet.perception.shape_fit import fit_shape, fitted_shapes  # noqa: E402
+from tactile_bullet.perception.shape_model import Calibration, load_calibration  # noqa: E402
+
+
+def accuracy(records, families, cal) -> float:
+    names = [fit_shape(r.fci_angles(), families, cal).shape for r in records]
+    return float(np.mean([n == r.shape for n, r in zip(names, records, strict=True)]))
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--data", required=True)
+    ap.add_argument("--draws", type=int, default=2)
+    ap.add_argument("--counts", default="1,2,5,10")
+    ap.add_argument("--known-sizes", action="store_true")
+    args = ap.parse_args()
+    records = [r for r in records_from(args.data)
+               if "no_contact" not in r.flags and r.shape in fitted_shapes()]  # fmt: skip
+    families = sorted({r.shape for r in records})
+    by_shape = {s: [r for r in records if r.shape == s] for s in families}
+    pool = {s: v[: len(v) // 2] for s, v in by_shape.items()}
+    test = [r for v in by_shape.values() for r in v[len(v) // 2 :]]
+    smallest = min(map(len, pool.values()))
+    print(f"{args.data}: {len(records)} grasps of {', '.join(families)}; "
+          f"pool {sum(map(len, pool.values()))}, test {len(test)}")  # fmt: skip
+    print(f"shipped Bullet coefficients: {100 * accuracy(test, families, load_calibration()):.1f}%")
+    print(f"no calibration (geometry alone): {100 * accuracy(test, families, Calibration()):.1f}%")
+    rng = np.random.default_rng(0)
+    for n in (int(c) for c in args.counts.split(",")):
+        if n > smallest:
+            print(f"{n} per shape: pool too small ({smallest})")
+            continue
+        scores, kept, took = [], 0, []
+        for _ in range(args.draws if n < smallest else 1):
+            chosen = [v[i] for v in pool.values() for i in rng.choice(len(v), n, replace=False)]
+            sizes = [dict(r.params) for r in chosen] if args.known_sizes else None
+            t0 = time.perf_counter()
+            hand = fit_hand([r.fci_angles() for r in chosen], [r.shape for r in chosen], sizes)
+            took.append(time.perf_counter() - t0)
+            kept += hand.kept_start
+            scores.append(accuracy(test, families, hand.calibration))
+        print(f"{n} per shape: {100 * np.mean(scores):.1f}% "
+              f"(draws: {', '.join(f'{100 * s:.1f}' for s in scores)}; shipped kept in {kept}; "
+              f"calibrate took {np.mean(took):.0f} s)", flush=True)  # fmt: skip
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,91 @@
+"""Grasp sets made by "other hands", for ``tools/hand_calibration.py`` (issue 21 item 3).
+
+Each set holds ``--per-shape`` grasps of each of the five thesis shapes at sizes drawn from
+fractions 0.1-0.9 of their ranges and at the demo's train and test offsets, made by one hand
+that is not the one the shape fit's shipped coefficients were fitted on:
+
+- ``mujoco``: the MuJoCo engine's hand (a physical J1/J2 tendon, distal phalanx first);
+- ``shifted-distal``: Bullet with every physics knob +20% (friction, thresT, closing speed;
+  phalanges +2%), the distal-first tendon rule, sensors reading J3 +3 deg and J2 -1 deg;
+- ``shifted-equal``: Bullet at -20%, the equal-torque tendon rule, J3 -2 deg and J2 -1 deg.
+
+Usage: python tools/other_hand_sets.py --hand mujoco --out DIR [--per-shape 24] [--workers 2]
+(about a minute per 120 grasps on two free cores).
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import sys
+from dataclasses import replace
+from multiprocessing import get_context
+from pathlib import Path
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parent.parent
+sys.path.insert(0, str(ROOT))
+
+from tactile_bullet.experiments.protocols import shifted  # noqa: E402
+from tactile_bullet.experiments.workflow import (  # noqa: E402
+    DEMO_SHAPES,
+    TEST_OFFSETS,
+    TRAIN_OFFSETS,
+    draw_specs,
+)
+from tactile_bullet.records import ControllerSettings, save_record  # noqa: E402
+
+FRACTIONS = (0.1, 0.3, 0.5, 0.7, 0.9)
+
+
+def _offsets(j3_deg: float) -> tuple[float, ...]:
+    return tuple(v for _ in range(4) for v in (math.radians(j3_deg), math.radians(-1.0), 0.0))
+
+
+HANDS = {
+    "mujoco": (31, ControllerSettings(engine="mujoco")),
+    "shifted-distal": (23, replace(shifted(ControllerSettings(), 0.2), coupling="distal-first",
+                                   joint_offsets=_offsets(3.0))),
+    "shifted-equal": (29, replace(shifted(ControllerSettings(), -0.2), coupling="equal-torque",
+                                  joint_offsets=_offsets(-2.0))),
+}  # fmt: skip
+"""hand name -> (seed of the size and offset draws, controller)."""
+
+
+def _grasp(task) -> str:
+    from tactile_bullet.sim.grasp import simulate_grasp
+
+    path, spec, ctl = task
+    try:
+        record = simulate_grasp(spec.shape, dict(spec.params), spec.pose, ctl, seed=spec.seed)
+    except ValueError:
+        return "refused"
+    save_record(record, path)
+    return "ok"
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--hand", required=True, choices=sorted(HANDS))
+    ap.add_argument("--out", required=True)
+    ap.add_argument("--per-shape", type=int, default=24)
+    ap.add_argument("--workers", type=int, default=2)
+    args = ap.parse_args()
+    seed, ctl = HANDS[args.hand]
+    out = Path(args.out)
+    if out.exists() and any(out.iterdir()):
+        sys.exit(f"{out} is not empty: name a new folder")
+    out.mkdir(parents=True, exist_ok=True)
+    rng = np.random.default_rng(seed)
+    specs = [s for name in DEMO_SHAPES
+             for s in draw_specs(name, args.per_shape, FRACTIONS, TEST_OFFSETS + TRAIN_OFFSETS,
+                                 rng)]  # fmt: skip
+    tasks = [(out / f"{i:03d}-{s.shape}.npz", s, ctl) for i, s in enumerate(specs)]
+    with get_context("spawn").Pool(args.workers) as pool:
+        done = pool.map(_grasp, tasks)
+    print(f"{done.count('ok')} of {len(tasks)} grasps written to {out}")
+
+
+if __name__ == "__main__":
+    main()

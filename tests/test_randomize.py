@@ -215,7 +215,11 @@ def test_control_rate_keeps_the_closing_speed():
     "table, message",
     [
         ({"gravity": [1]}, "unknown key 'gravity'"),
-        ({"engine": ["bullet", "mujoco"]}, "only one physics engine"),
+        ({"engine": ["bullet", "physx"]}, "unknown engine 'physx' \\(engines: bullet, mujoco"),
+        ({"engine": []}, "engine must be a non-empty list"),
+        ({"engine": ["mujoco", "mujoco"]}, "names an engine twice"),
+        ({"engine": ["bullet", "mujoco"], "contact_stiffness": [0, 3000]},
+         "contact_stiffness cannot be used with engine 'mujoco'"),
         ({"coupling": ["sideways"]}, "coupling must be"),
         ({"friction": {"min": 1.0, "max": 0.5}}, "min <= max"),
         ({"friction": {"min": 0.0, "max": 0.5}}, "friction must be a positive"),
@@ -231,11 +235,69 @@ def test_bad_randomize_tables_are_refused_on_reading(table, message):
         Sweep.from_dict({"randomize": table, "shapes": [{"name": "sphere"}]})
 
 
+def test_engine_is_drawn_last_and_keeps_every_other_draw():
+    """Adding the engine key changes nothing else a grasp draws (it is drawn last), picks
+    among the named engines only, and round-trips through the sweep's saved form."""
+    table = {k: v for k, v in RANDOMIZED_TABLE.items() if k != "contact_stiffness"}
+    plain = small_sweep(**table)
+    both = small_sweep(**table, engine=["bullet", "mujoco"])
+    assert Sweep.from_dict(both.to_dict()).randomize == both.randomize
+    drawn = [t.controller for t in both.tasks(seed=5)]
+    assert {c.engine for c in drawn} == {"bullet", "mujoco"}
+    for before, after in zip(plain.tasks(seed=5), drawn, strict=True):
+        assert replace(after, engine="bullet") == before.controller
+    assert {t.controller.engine for t in small_sweep(**table, engine=["mujoco"]).tasks()} == {
+        "mujoco"}
+
+
+def test_engine_draw_is_recorded_per_record_and_verify_names_both(tmp_path, capsys):
+    """Each grasp runs on its drawn engine and its record says which; verify reports the mix;
+    ``generate --engine`` on such a sweep is a contradiction, refused before any grasp."""
+    from tactile_bullet.datasets.dataset import read_records, verify
+
+    config = tmp_path / "mixed.toml"
+    config.write_text('mode = "random"\nsamples = 2\n[randomize]\nengine = ["bullet", '
+                      '"mujoco"]\n[[shapes]]\nname = "sphere"\n')  # fmt: skip
+    out = tmp_path / "mixed"
+    argv = ["generate", "--config", str(config), "--out", str(out), "--workers", "1", "--json"]
+    assert main([*argv, "--seed", "0"]) == 0
+    capsys.readouterr()
+    expected = [t.controller.engine for t in Sweep.from_toml(config).tasks(seed=0)]
+    assert sorted(expected) == ["bullet", "mujoco"]
+    records = read_records(out).records
+    assert sorted(r.controller.engine for r in records) == ["bullet", "mujoco"]
+    assert verify(out)["engines"] == ["bullet", "mujoco"]
+    other = ["generate", "--config", str(config), "--out", str(tmp_path / "x"), "--engine",
+             "mujoco"]  # fmt: skip
+    err = run_error(capsys, other)
+    assert "contradicts the sweep's [randomize] engine draw" in err
+    assert not (tmp_path / "x").exists()
+
+
+def test_mujoco_randomized_twin_draws_grasp_on_mujoco():
+    """The cross-engine benchmark's randomised MuJoCo set: its draws (slowest control rate,
+    low friction) still make a grasp there, all four fingers on a centred cylinder."""
+    from tactile_bullet.datasets.randomize import draw_for_task, randomized_table
+
+    table = Randomization.from_dict(randomized_table("mujoco"))
+    base = ControllerSettings(engine="mujoco")
+    seed = next(s for s in range(200) if draw_for_task(table, base, s).control_every == 2
+                and draw_for_task(table, base, s).friction < 0.7)  # fmt: skip
+    ctl = draw_for_task(table, base, seed)
+    record = simulate_grasp(*CYLINDER, Pose(), ctl)
+    assert record.controller == ctl and record.controller.engine == "mujoco"
+    assert set(record.fingers_in_contact) >= {"ff", "mf", "rf", "lf"}
+
+
 def test_benchmark_sets_randomized_twins_and_coupling_shift():
     sets = P.sets("tiny")
     twin, train = sets[P.randomized_name("tiny-demo-train")], sets["tiny-demo-train"]
     assert twin.sweep().shapes == train.sweep().shapes and twin.seed == train.seed
     assert twin.randomize == Randomization.from_dict(RANDOMIZED_TABLE)
+    # MuJoCo has no contact-stiffness knob: its randomised twin draws every other key
+    mj = sets[P.randomized_name("tiny-mujoco-demo-train")].randomize
+    assert mj.contact_stiffness is None and mj.coupling == twin.randomize.coupling
+    assert replace(mj, contact_stiffness=twin.randomize.contact_stiffness) == twin.randomize
     assert sets["tiny-coupling-distal-first"].controller.coupling == "distal-first"
     names = [s.name for s in P.needed_sets(["coupling-shift"], "tiny", ("clean",))]
     assert names == ["tiny-demo-train", "tiny-coupling-equal-torque",

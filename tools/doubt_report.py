@@ -3,7 +3,8 @@
 Reads a benchmark's ``benchmark.json`` (each row carries ``ambiguous``: the shares of all, right
 and wrong answers its pair's calibrated margin flags, ``learn/doubt.py``) and pools, per method,
 the right and wrong answers of the in-Bullet levels (``in-distribution``) and of the shifted
-simulator (every ``sim-shift`` level but ``none``), the stand-in for another engine.
+simulator (every ``sim-shift`` level but ``none``), the stand-in for another engine, and of
+the other engine itself (``cross-engine``, both directions).
 
 Usage::
 
@@ -11,6 +12,9 @@ Usage::
         --descriptor signature,raw-joints,robust-joints --classifier svm,knn,shape-fit \\
         --training clean --out bench-doubt
     python tools/doubt_report.py bench-doubt/benchmark.json
+
+    tactile-bullet benchmark --protocol cross-engine --training clean,randomized --out bench-x
+    python tools/doubt_report.py bench-x/benchmark.json
 """
 
 from __future__ import annotations
@@ -19,8 +23,10 @@ import argparse
 import json
 from collections import defaultdict
 
-GROUPS = {"in-Bullet": ("in-distribution", None), "shifted": ("sim-shift", "none")}
-"""Report group -> (protocol, level left out)."""
+GROUPS = {"in-Bullet": ("in-distribution", None), "shifted": ("sim-shift", "none"),
+          "cross-eng": ("cross-engine", None)}  # fmt: skip
+"""Report group -> (protocol, level left out). ``cross-eng`` pools both directions of the
+``cross-engine`` protocol (each level's margin calibrated on its own training engine)."""
 
 
 def pooled(rows: list[dict]) -> dict[tuple, dict[str, dict[str, float]]]:

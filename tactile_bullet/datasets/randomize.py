@@ -23,8 +23,10 @@ alone (a resumed dataset, a subset) gets the same hand.
 
 ``control_rate`` sets ``control_every`` (physics steps per tick, at the ``[controller]``
 timestep) and ``closing_speed`` sets ``delta`` for that rate: the two are independent knobs.
-The engine is not drawn yet: it joins as one more key (``engine = ["bullet", "mujoco"]``) once
-several engines are installed (issue 19); see :func:`draw`.
+``engine = ["bullet", "mujoco"]`` draws the physics engine too (only installed engines; a
+record's ``controller.engine`` says which made it). It is drawn last, so a table that adds it
+keeps every other draw of each grasp as it was. ``contact_stiffness`` cannot be drawn with an
+engine that has no such knob (:data:`SOFT_CONTACT_ENGINES`).
 """
 
 from __future__ import annotations
@@ -45,7 +47,7 @@ Choice = tuple[float, ...] | dict[str, float]
 
 NUMERIC_KEYS = ("friction", "thres_t", "closing_speed", "phalanx_scale", "contact_stiffness",
                 "control_rate")  # fmt: skip
-KEYS = (*NUMERIC_KEYS, "joint_offset_deg", "coupling")
+KEYS = (*NUMERIC_KEYS, "joint_offset_deg", "coupling", "engine")
 DRAW_SALT = 0x52414E44
 """Mixed into each grasp's seed so the hand's draw is independent of anything else seeded by
 it."""
@@ -63,6 +65,7 @@ class Randomization:
     control_rate: Choice | None = None
     joint_offset_deg: float | None = None
     coupling: tuple[str, ...] | None = None
+    engine: tuple[str, ...] | None = None
 
     @classmethod
     def from_dict(
@@ -72,11 +75,6 @@ class Randomization:
         ``base``; every problem is a UsageError naming the key."""
         if not isinstance(data, Mapping):
             raise UsageError(f"{where} must be a table")
-        if "engine" in data:
-            raise UsageError(
-                f"{where} engine: only one physics engine is installed here, so there is none to "
-                "draw from (several engines come with the engine interface, issue 19)"
-            )
         unknown = sorted(set(data) - set(KEYS))
         if unknown:
             raise UsageError(f"{where}: unknown key {unknown[0]!r} (keys: {', '.join(KEYS)})")
@@ -102,6 +100,20 @@ class Randomization:
                     f"got {data['coupling']!r}"
                 )
             out["coupling"] = tuple(names)
+        if "engine" in data:
+            out["engine"] = _engines(data["engine"], where)
+            soft = out.get("contact_stiffness")
+            rigid_only = [e for e in out["engine"] if e not in SOFT_CONTACT_ENGINES]
+            fixed = base.contact_stiffness if base is not None else 0.0
+            stiff = _extreme(soft, max) if soft is not None else fixed
+            if rigid_only and stiff > 0:
+                raise UsageError(
+                    f"{where} contact_stiffness cannot be used with engine {rigid_only[0]!r}, "
+                    f"which has no soft-contact knob (only {', '.join(SOFT_CONTACT_ENGINES)})"
+                )
+            if base is not None and base.hand_model is not None and out["engine"] != ("mujoco",):
+                raise UsageError(f"{where} engine: a [controller] hand_model is the mujoco "
+                                 "engine's only, so no other engine can be drawn with it")
         result = cls(**out)
         result.draw(base or ControllerSettings(), np.random.default_rng(0), check=True)
         return result
@@ -134,10 +146,13 @@ class Randomization:
         coupling = None
         if self.coupling is not None:
             coupling = self.coupling[int(rng.integers(len(self.coupling)))]
-        # The engine's draw goes here, last, so adding it keeps every earlier draw as it is.
-        return self._apply(base, values, offsets, coupling)
+        # The engine's draw comes last, so adding it keeps every earlier draw as it is.
+        engine = None
+        if self.engine is not None:
+            engine = self.engine[int(rng.integers(len(self.engine)))]
+        return self._apply(base, values, offsets, coupling, engine)
 
-    def _apply(self, base, values, offsets, coupling, checking: bool = False):
+    def _apply(self, base, values, offsets, coupling, engine=None, checking: bool = False):
         changes: dict[str, Any] = {}
         for key in ("friction", "thres_t", "phalanx_scale", "contact_stiffness"):
             if values[key] is not None:
@@ -161,6 +176,8 @@ class Randomization:
             )
         if coupling is not None:
             changes["coupling"] = coupling
+        if engine is not None:
+            changes["engine"] = engine
         try:
             return replace(base, **changes)
         except UsageError as exc:
@@ -194,6 +211,37 @@ RANDOMIZED_TABLE: dict[str, Any] = {
 0.35 N m), closing speed 1.0-1.9 rad/s (default 1.44), phalanges +-5%, reading offsets within
 +-3 deg (the sensor-noise protocol's headline bias), every coupling rule, rigid to soft
 (3 kN/m) contacts, control at 240 or 120 Hz."""
+
+SOFT_CONTACT_ENGINES: tuple[str, ...] = ("bullet",)
+"""Engines with a ``contact_stiffness`` knob (MuJoCo's has no faithful counterpart yet and
+refuses it, ``sim/engines/mujoco.py``)."""
+
+
+def randomized_table(engine: str = "bullet") -> dict[str, Any]:
+    """:data:`RANDOMIZED_TABLE` for grasps made with ``engine``: without the contact stiffness
+    draw where the engine has no such knob (its own contact model stays), every other draw
+    as it is."""
+    if engine in SOFT_CONTACT_ENGINES:
+        return dict(RANDOMIZED_TABLE)
+    return {k: v for k, v in RANDOMIZED_TABLE.items() if k != "contact_stiffness"}
+
+
+def _engines(value: Any, where: str) -> tuple[str, ...]:
+    """A non-empty list of installed engine names, each once (the registry's UsageError names
+    the installed ones, or how to install a missing one)."""
+    from ..plugins import get_engine
+
+    names = [value] if isinstance(value, str) else value
+    if not isinstance(names, list) or not names or not all(isinstance(n, str) for n in names):
+        raise UsageError(f"{where} engine must be a non-empty list of engine names, got {value!r}")
+    if len(set(names)) != len(names):
+        raise UsageError(f"{where} engine names an engine twice: {value!r}")
+    for name in names:
+        try:
+            get_engine(name)
+        except UsageError as exc:
+            raise UsageError(f"{where} engine: {exc}") from None
+    return tuple(names)
 
 
 def _choice(value: Any, what: str) -> Choice:

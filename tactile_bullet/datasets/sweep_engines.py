@@ -48,5 +48,9 @@ def check_engine(controller, source: str) -> None:
 def with_engine(sweep, engine: str, hand_model: str | None = None):
     """The sweep simulated with another physics engine (``generate --engine``) and, for
     mujoco, another hand model (``--hand-model``)."""
+    drawn = getattr(sweep.randomize, "engine", None)
+    if drawn is not None:
+        raise UsageError(f"--engine {engine} contradicts the sweep's [randomize] engine draw "
+                         f"({', '.join(drawn)}): leave out one of them")
     settings = {"engine": engine} | ({"hand_model": hand_model} if hand_model else {})
     return replace(sweep, controller=replace(sweep.controller, **settings))

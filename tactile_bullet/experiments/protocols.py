@@ -22,8 +22,8 @@ from the training ones along one axis a deployed system meets:
   first): a stand-in for another engine's or a real hand's tendon.
 
 Each protocol's training set also exists randomised (:func:`randomized_name`: the same specs
-with ``datasets.randomize.RANDOMIZED_TABLE`` drawn per grasp), read by the benchmark's
-``randomized`` training.
+with ``datasets.randomize.randomized_table`` of the set's engine drawn per grasp), read by the
+benchmark's ``randomized`` training.
 
 Two more compare physics engines (``sim/engines/``) and run only when named (``all`` keeps to
 the five above, which need no optional package):
@@ -44,7 +44,7 @@ from __future__ import annotations
 from collections.abc import Sequence
 from dataclasses import dataclass, field, replace
 
-from ..datasets.randomize import RANDOMIZED_TABLE, Randomization
+from ..datasets.randomize import Randomization, randomized_table
 from ..datasets.sweeps import ShapeSweep, Sweep
 from ..errors import UsageError
 from ..learn.perturb import SensorModel
@@ -217,9 +217,9 @@ def _sets(scale: str, engine: str) -> list[SetSpec]:
                            ROTATIONS_DEG),),
         ),
     ]  # fmt: skip
+    table = Randomization.from_dict(randomized_table(engine))
     for train in [s for s in out if s.name.endswith("-train")]:
-        out.append(replace(train, name=randomized_name(train.name),
-                           randomize=Randomization.from_dict(RANDOMIZED_TABLE)))  # fmt: skip
+        out.append(replace(train, name=randomized_name(train.name), randomize=table))
     for rule in COUPLING_SHIFTS:
         out.append(SetSpec(f"{tag}coupling-{rule}", n_test, TEST_FRACTIONS, TEST_X, TEST_Z,
                            controller=replace(base, coupling=rule), seed=2))  # fmt: skip

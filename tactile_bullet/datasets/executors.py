@@ -147,8 +147,10 @@ def _run_pool(tasks, workers, task_fn):
         with _pool(workers) as pool:
             while queue or in_flight:
                 while queue and len(in_flight) < workers:
-                    task = queue.pop(0)
-                    in_flight[pool.submit(task_fn, task)] = task
+                    # submit before taking the task off the queue: a pool that broke since the
+                    # last wait raises here, and the task must stay queued, not vanish
+                    future = pool.submit(task_fn, queue[0])
+                    in_flight[future] = queue.pop(0)
                 done, _ = wait(in_flight, return_when=FIRST_COMPLETED)
                 for future in done:
                     outcome = future.result()  # BrokenProcessPool if a worker died

@@ -20,7 +20,6 @@ Run from the repository root::
 
 from __future__ import annotations
 
-import argparse
 import math
 import sys
 from pathlib import Path
@@ -186,14 +185,7 @@ def build() -> str:
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(description="Write the Shadow hand MJCF from docs/hand.md.")
-    parser.add_argument("out", nargs="?", type=Path, default=DEFAULT_OUT,
-                        help=f"where to write the MJCF (default: {DEFAULT_OUT.relative_to(REPO)})")
-    out = parser.parse_args(argv).out
-    out.parent.mkdir(parents=True, exist_ok=True)
-    out.write_text(build())
-    print(f"wrote {out}")
-    return 0
+    return sheet.write_model("MJCF", build, DEFAULT_OUT, argv)
 
 
 if __name__ == "__main__":

@@ -298,15 +298,21 @@ def build() -> str:
     return "\n".join(parts)
 
 
-def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(description="Write the Shadow hand URDF from docs/hand.md.")
-    parser.add_argument("out", nargs="?", type=Path, default=DEFAULT_OUT,
-                        help=f"where to write the URDF (default: {DEFAULT_OUT.relative_to(REPO)})")
+def write_model(kind: str, text_of, default_out: Path, argv: list[str] | None = None) -> int:
+    """The command line both generators share: write ``text_of()`` to OUT (default
+    ``default_out``); ``kind`` names the file format in the help."""
+    parser = argparse.ArgumentParser(description=f"Write the Shadow hand {kind} from docs/hand.md.")
+    parser.add_argument("out", nargs="?", type=Path, default=default_out,
+                        help=f"where to write it (default: {default_out.relative_to(REPO)})")
     out = parser.parse_args(argv).out
     out.parent.mkdir(parents=True, exist_ok=True)
-    out.write_text(build())
+    out.write_text(text_of())
     print(f"wrote {out}")
     return 0
+
+
+def main(argv: list[str] | None = None) -> int:
+    return write_model("URDF", build, DEFAULT_OUT, argv)
 
 
 if __name__ == "__main__":

@@ -41,6 +41,7 @@ import numpy as np
 
 from ..errors import UsageError
 from ..records import COUPLINGS, MAX_JOINT_OFFSET, OFFSET_JOINTS, ControllerSettings
+from .sweep_values import numbers_or_range
 
 Choice = tuple[float, ...] | dict[str, float]
 """A list of values, or {"min", "max"}."""
@@ -245,26 +246,7 @@ def _engines(value: Any, where: str) -> tuple[str, ...]:
 
 
 def _choice(value: Any, what: str) -> Choice:
-    if isinstance(value, int | float) and not isinstance(value, bool):
-        value = [value]
-    if isinstance(value, list):
-        if not value or not all(
-            isinstance(v, int | float) and not isinstance(v, bool) and math.isfinite(v)
-            for v in value
-        ):
-            raise UsageError(f"{what} must be a non-empty list of numbers or a {{min, max}} table")
-        return tuple(float(v) for v in value)
-    if isinstance(value, Mapping):
-        if set(value) != {"min", "max"}:
-            raise UsageError(f"{what} range needs exactly the keys min and max")
-        try:
-            lo, hi = float(value["min"]), float(value["max"])
-        except (TypeError, ValueError):
-            raise UsageError(f"{what} range needs numeric min and max") from None
-        if not (math.isfinite(lo) and math.isfinite(hi)) or lo > hi:
-            raise UsageError(f"{what} range needs finite min <= max, got {lo:g} > {hi:g}")
-        return {"min": lo, "max": hi}
-    raise UsageError(f"{what} must be a list of numbers or a {{min, max}} table")
+    return numbers_or_range(value, what)
 
 
 def _draw(choice: Choice | None, rng: np.random.Generator) -> float | None:

@@ -32,6 +32,7 @@ from ..records import (
     controller_dict,
 )
 from .sweep_engines import check_engine, merge_engine
+from .sweep_values import numbers_or_range
 
 if TYPE_CHECKING:
     from ..objects.meshes import MeshSource
@@ -436,28 +437,10 @@ def _positive_int(value: Any, what: str) -> int:
 
 
 def _dimension(value: Any, mode: str, what: str) -> Dimension:
-    if isinstance(value, int | float) and not isinstance(value, bool):
-        value = [value]
-    if isinstance(value, list):
-        if not value or not all(
-            isinstance(v, int | float) and not isinstance(v, bool) and math.isfinite(v)
-            for v in value
-        ):
-            raise UsageError(f"{what} must be a non-empty list of numbers")
-        return tuple(float(v) for v in value)
-    if isinstance(value, Mapping):
-        _no_unknown(value, ("min", "max", "steps"), what)
-        try:
-            lo, hi = float(value["min"]), float(value["max"])
-        except (KeyError, TypeError, ValueError):
-            raise UsageError(f"{what} range needs numeric min and max") from None
-        if not (math.isfinite(lo) and math.isfinite(hi)) or lo > hi:
-            raise UsageError(f"{what} range needs min <= max, got {lo} > {hi}")
-        out = {"min": lo, "max": hi}
-        if mode == "grid":
-            out["steps"] = _positive_int(value.get("steps"), f"{what} steps (grid mode)")
-        return out
-    raise UsageError(f"{what} must be a list of numbers or a {{min, max}} table")
+    dim = numbers_or_range(value, what, ("min", "max", "steps"))
+    if isinstance(dim, dict) and mode == "grid":
+        dim["steps"] = _positive_int(value.get("steps"), f"{what} steps (grid mode)")
+    return dim
 
 
 def _shape_sweep(data: Any, mode: str, where: str) -> ShapeSweep:

@@ -38,3 +38,15 @@ def register_test_plugin():
 def synthetic_split():
     """(train, test) synthetic records of the five thesis shapes: 12 and 6 per shape."""
     return make_records(per_shape=12, seed=1), make_records(per_shape=6, seed=2)
+
+
+@pytest.fixture
+def private_mesh_cache(tmp_path_factory, monkeypatch):
+    """An empty mesh cache of the test's own and no in-memory copies, before and after (the
+    mesh tests use it for every test: ``pytestmark = usefixtures(...)``)."""
+    from tactile_bullet.objects import meshes
+
+    monkeypatch.setenv(meshes.CACHE_ENV, str(tmp_path_factory.mktemp("cache")))
+    meshes.forget_loaded()
+    yield
+    meshes.forget_loaded()

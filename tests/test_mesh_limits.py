@@ -13,13 +13,7 @@ import trimesh
 from tactile_bullet.errors import UsageError
 from tactile_bullet.objects import meshes
 
-
-@pytest.fixture(autouse=True)
-def private_cache(tmp_path_factory, monkeypatch):
-    monkeypatch.setenv(meshes.CACHE_ENV, str(tmp_path_factory.mktemp("cache")))
-    meshes.forget_loaded()
-    yield
-    meshes.forget_loaded()
+pytestmark = pytest.mark.usefixtures("private_mesh_cache")
 
 
 def ball(folder, subdivisions=3, ext="stl"):

@@ -21,13 +21,7 @@ from tactile_bullet.records import load_record
 REPO = Path(__file__).resolve().parent.parent
 
 
-@pytest.fixture(autouse=True)
-def private_cache(tmp_path_factory, monkeypatch):
-    """Each test gets its own empty mesh cache and no in-memory copies."""
-    monkeypatch.setenv(meshes.CACHE_ENV, str(tmp_path_factory.mktemp("cache")))
-    meshes.forget_loaded()
-    yield
-    meshes.forget_loaded()
+pytestmark = pytest.mark.usefixtures("private_mesh_cache")
 
 
 def make_objects_tool():

@@ -19,7 +19,6 @@ import argparse
 import math
 import sys
 from dataclasses import replace
-from multiprocessing import get_context
 from pathlib import Path
 
 import numpy as np
@@ -27,6 +26,7 @@ import numpy as np
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 
+from tactile_bullet.datasets.bulk import save_records, simulate_many  # noqa: E402
 from tactile_bullet.experiments.protocols import shifted  # noqa: E402
 from tactile_bullet.experiments.workflow import (  # noqa: E402
     DEMO_SHAPES,
@@ -34,7 +34,7 @@ from tactile_bullet.experiments.workflow import (  # noqa: E402
     TRAIN_OFFSETS,
     draw_specs,
 )
-from tactile_bullet.records import ControllerSettings, save_record  # noqa: E402
+from tactile_bullet.records import ControllerSettings  # noqa: E402
 
 FRACTIONS = (0.1, 0.3, 0.5, 0.7, 0.9)
 
@@ -53,18 +53,6 @@ HANDS = {
 """hand name -> (seed of the size and offset draws, controller)."""
 
 
-def _grasp(task) -> str:
-    from tactile_bullet.sim.grasp import simulate_grasp
-
-    path, spec, ctl = task
-    try:
-        record = simulate_grasp(spec.shape, dict(spec.params), spec.pose, ctl, seed=spec.seed)
-    except ValueError:
-        return "refused"
-    save_record(record, path)
-    return "ok"
-
-
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--hand", required=True, choices=sorted(HANDS))
@@ -80,11 +68,12 @@ def main() -> None:
     rng = np.random.default_rng(seed)
     specs = [s for name in DEMO_SHAPES
              for s in draw_specs(name, args.per_shape, FRACTIONS, TEST_OFFSETS + TRAIN_OFFSETS,
-                                 rng)]  # fmt: skip
-    tasks = [(out / f"{i:03d}-{s.shape}.npz", s, ctl) for i, s in enumerate(specs)]
-    with get_context("spawn").Pool(args.workers) as pool:
-        done = pool.map(_grasp, tasks)
-    print(f"{done.count('ok')} of {len(tasks)} grasps written to {out}")
+                                 rng, controller=ctl)]  # fmt: skip
+    records, failures = simulate_many(specs, args.workers, desc=f"{args.hand} grasps")
+    save_records(records, out)
+    print(f"{len(records)} of {len(specs)} grasps written to {out}")
+    for reason in failures:
+        print(f"  not simulated: {reason}")
 
 
 if __name__ == "__main__":

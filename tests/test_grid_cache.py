@@ -111,3 +111,20 @@ def test_without_readable_sources_nothing_is_cached(cache, monkeypatch):
     grid_cache.grid_geometry("sphere", GRID, compute)
     grid_cache.grid_geometry("sphere", GRID, compute)
     assert compute.calls == 2 and not cache.exists()
+
+
+def test_an_entry_with_a_member_it_never_writes_is_recomputed_unread(cache, monkeypatch):
+    """A cache entry carrying an extra (possibly zip-bomb) member is refused before any array
+    is inflated, like every other .npz the project reads, and recomputed."""
+    compute = Counting()
+    good = grid_cache.grid_geometry("sphere", GRID, compute)
+    path = grid_cache.cache_path("sphere")
+    with np.load(path) as data:
+        members = {k: data[k] for k in data.files}
+    with open(path, "wb") as fh:
+        np.savez(fh, **members, extra=np.zeros(10))
+    loads = []
+    monkeypatch.setattr(grid_cache.np, "load", lambda *a, **k: loads.append(a) or 1 / 0)
+    again = grid_cache.grid_geometry("sphere", GRID, compute)
+    assert compute.calls == 2 and not loads
+    np.testing.assert_array_equal(again, good)

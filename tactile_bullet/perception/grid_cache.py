@@ -60,18 +60,26 @@ def cache_path(family: str) -> Path:
     return cache_dir() / "shape_fit" / f"{family}-{code_key()[:16]}.npz"
 
 
+_MEMBERS = frozenset({"meta", "grid", "geometry"})
+"""What :func:`_write` stores; an entry holding anything else is not ours and is recomputed."""
+
+
 def _checksum(values: np.ndarray) -> str:
     return hashlib.sha256(np.ascontiguousarray(values, dtype="<f8").tobytes()).hexdigest()
 
 
 def _read(path: Path, grid: np.ndarray) -> np.ndarray | None:
     """The cached geometry for ``grid``, or None where any check fails."""
-    try:
+    from ..errors import UsageError
+    from ..files import check_npz_members
+
+    try:  # members and sizes first, as for every other .npz read (a tampered entry may inflate)
+        check_npz_members(path, "shape-fit cache", lambda n: n in _MEMBERS, 256 << 20)
         with np.load(path, allow_pickle=False) as data:
             meta = json.loads(str(data["meta"]))
             stored_grid = np.asarray(data["grid"])
             geometry = np.asarray(data["geometry"], dtype=float)
-    except (OSError, ValueError, KeyError, TypeError, EOFError, zipfile.BadZipFile):
+    except (OSError, ValueError, KeyError, TypeError, EOFError, zipfile.BadZipFile, UsageError):
         return None
     if not isinstance(meta, dict) or meta.get("key") != code_key():
         return None

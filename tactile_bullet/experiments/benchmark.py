@@ -34,11 +34,10 @@ import numpy as np
 from ..console import plural
 from ..errors import UsageError
 from ..learn.perturb import perturb_all
+from ..learn.trainings import check_training
 from ..records import GraspRecord
 from . import protocols as P
 
-TRAININGS: tuple[str, ...] = ("clean", "noise-aware", "randomized")
-"""As ``learn/trainings.py``'s (which ``train --training`` uses)."""
 DEFAULT_TRAININGS: tuple[str, ...] = ("clean", "noise-aware")
 QUICK_DESCRIPTORS = ("signature", "raw-joints", "contact-normals", "robust-signature",
                      "robust-joints")  # fmt: skip
@@ -79,8 +78,7 @@ def check_names(descriptors: Sequence[str], classifiers: Sequence[str], training
     for name in classifiers:
         get_classifier(name)
     for name in trainings:
-        if name not in TRAININGS:
-            raise UsageError(f"unknown training {name!r} (known: {', '.join(TRAININGS)})")
+        check_training(name)
 
 
 def prepare_out(out: Path, config: Mapping[str, Any]) -> None:

@@ -109,6 +109,25 @@ def test_use_calibration_changes_the_fit_only_inside_its_block():
     assert fit_family(angles, "sphere").residual == before
 
 
+def test_the_doubt_cross_check_reads_a_hand_with_that_hands_calibration():
+    """The second opinion of ``learn/doubt.py`` (what ``evaluate``, ``identify`` and the
+    ``Identifier`` flag answers with) is the shape fit under the hand calibration in force: a
+    hand whose J3 reads a few degrees more on the index than on the little finger makes a
+    cylinder look tapered to the shipped coefficients, not to its own."""
+    from types import SimpleNamespace
+
+    from tactile_bullet.learn.doubt import cross_check_names
+
+    d = 0.05
+    taper = replace(SHIPPED, intercept=SHIPPED.intercept + np.array([[d, d / 3, -d / 3, -d],
+                                                                     [-d, 0, 0, d]]))  # fmt: skip
+    j3, j0 = predicted_angles("cylinder", {"radius": 0.035, "length": 0.15}, (0.0, 0.0), taper)
+    grasp = SimpleNamespace(fci_angles=lambda: np.stack([j3, j0, np.zeros(4)]))
+    assert list(cross_check_names([grasp], ["cone", "cylinder"])) == ["cone"]
+    with use_calibration(taper):
+        assert list(cross_check_names([grasp], ["cone", "cylinder"])) == ["cylinder"]
+
+
 # --- the file ---------------------------------------------------------------------------------
 
 

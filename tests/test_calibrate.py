@@ -76,6 +76,34 @@ def test_known_sizes_fit_only_the_pose_and_still_recover_the_hand():
     )
 
 
+FAMILY_RAD = {"sphere": np.array([[0.0] * 4, [0.15] * 4]),
+              "cylinder": np.array([[0.0] * 4, [-0.1] * 4])}  # fmt: skip
+SQUEEZING = replace(OTHER, family=FAMILY_RAD)
+"""A hand that also closes J0 further on a sphere and less far on a cylinder than the finger
+chain says (as MuJoCo's hand does on its families, tools/calibration_residuals.py)."""
+
+
+def test_known_sizes_learn_how_far_the_hand_squeezes_each_family():
+    known = other_hand_grasps(slice(0, 4), SQUEEZING)
+    angles, shapes, sizes = ([g[i] for g in known] for i in range(3))
+    # a weak pull toward the shipped coefficients, as cross-validation picks for MuJoCo's hand
+    hand = fit_hand(angles, shapes, sizes=sizes, strengths=(0.25,), folds=2)
+    fitted = hand.calibration.family
+    assert set(fitted) == {"sphere", "cylinder"}
+    # the sphere's J0 offset lies above the cylinder's on every finger, as the hand's (by
+    # 0.25 rad; the ridge pull toward none shrinks it), and J3's stay near the hand's none
+    gap = fitted["sphere"] - fitted["cylinder"]
+    assert np.all(gap[1] > 0.12) and np.all(np.abs(gap[0]) < 0.03)
+    unseen = other_hand_grasps(slice(4, 6), SQUEEZING)
+    without = replace(hand.calibration, family={})
+    assert own_family_residual(unseen, hand.calibration) < 0.5 * own_family_residual(
+        unseen, without
+    )
+    # from labels alone the fitted sizes would take the offsets up: none are fitted
+    blind = fit_hand(angles, shapes, strengths=(0.25,), folds=2)
+    assert blind.calibration.family == {}
+
+
 def test_the_shipped_hand_itself_keeps_its_coefficients_in_effect():
     known = other_hand_grasps(slice(0, 4), SHIPPED)
     hand = fit_hand([a for a, _, _ in known], [s for _, s, _ in known], strengths=(1.0,), folds=2)
@@ -143,6 +171,11 @@ def test_the_file_round_trips_its_coefficients(tmp_path):
     np.testing.assert_allclose(hand.calibration.gain, OTHER.gain)
     assert hand.hand == "rh" and hand.grasps_per_shape == {"sphere": 2, "cylinder": 2}
     assert hand.report["candidates"][0]["strength"] == "shipped"
+    assert hand.calibration.family == {}
+    (tmp_path / "family").mkdir()
+    squeezing = load(_file(tmp_path / "family", SQUEEZING)).calibration
+    assert set(squeezing.family) == {"sphere", "cylinder"}
+    np.testing.assert_allclose(squeezing.family["sphere"], FAMILY_RAD["sphere"])
 
 
 @pytest.mark.parametrize(
@@ -160,6 +193,22 @@ def test_the_file_round_trips_its_coefficients(tmp_path):
 )
 def test_a_damaged_file_is_refused_on_one_line(tmp_path, edit, message):
     path = _file(tmp_path)
+    path.write_text(edit(path.read_text()))
+    with pytest.raises(UsageError, match=message):
+        load(path)
+
+
+@pytest.mark.parametrize(
+    ("edit", "message"),
+    [
+        (lambda t: t.replace("\nsphere = [[", "\nteapot = [["), "no fitted shape"),
+        (lambda t: t.replace("\nsphere = [[0.0", "\nsphere = [[1.0"), "within \\+-45 deg"),
+        (lambda t: t.replace("\nsphere = [[0.0", "\nsphere = [[[0.0]"), "family sphere must"),
+    ],
+)
+def test_a_damaged_family_offset_is_refused_on_one_line(tmp_path, edit, message):
+    path = _file(tmp_path, SQUEEZING)
+    assert "[coefficients.family]" in path.read_text()
     path.write_text(edit(path.read_text()))
     with pytest.raises(UsageError, match=message):
         load(path)

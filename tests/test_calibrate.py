@@ -84,23 +84,27 @@ chain says (as MuJoCo's hand does on its families, tools/calibration_residuals.p
 
 
 def test_known_sizes_learn_how_far_the_hand_squeezes_each_family():
+    from tactile_bullet.perception.hand_fit import _alternate
+
     known = other_hand_grasps(slice(0, 4), SQUEEZING)
     angles, shapes, sizes = ([g[i] for g in known] for i in range(3))
+    measured = np.array([np.stack([a[0], a[1] + a[2]]) for a in angles])
     # a weak pull toward the shipped coefficients, as cross-validation picks for MuJoCo's hand
-    hand = fit_hand(angles, shapes, sizes=sizes, strengths=(0.25,), folds=2)
-    fitted = hand.calibration.family
-    assert set(fitted) == {"sphere", "cylinder"}
+    cal = _alternate(measured, shapes, sizes, SHIPPED, 0.25 * len(shapes), per_family=True)
+    assert set(cal.family) == {"sphere", "cylinder"}
     # the sphere's J0 offset lies above the cylinder's on every finger, as the hand's (by
     # 0.25 rad; the ridge pull toward none shrinks it), and J3's stay near the hand's none
-    gap = fitted["sphere"] - fitted["cylinder"]
+    gap = cal.family["sphere"] - cal.family["cylinder"]
     assert np.all(gap[1] > 0.12) and np.all(np.abs(gap[0]) < 0.03)
     unseen = other_hand_grasps(slice(4, 6), SQUEEZING)
-    without = replace(hand.calibration, family={})
-    assert own_family_residual(unseen, hand.calibration) < 0.5 * own_family_residual(
-        unseen, without
-    )
-    # from labels alone the fitted sizes would take the offsets up: none are fitted
+    without = replace(cal, family={})
+    assert own_family_residual(unseen, cal) < 0.5 * own_family_residual(unseen, without)
+    # calibrate tries each pull with and without family terms where sizes are known, and
+    # never fits them from labels alone (the fitted sizes would take the offsets up)
+    hand = fit_hand(angles, shapes, sizes=sizes, strengths=(0.25,), folds=2)
+    assert [c["family_terms"] for c in hand.report["candidates"]] == [False, False, True]
     blind = fit_hand(angles, shapes, strengths=(0.25,), folds=2)
+    assert [c["family_terms"] for c in blind.report["candidates"]] == [False, False]
     assert blind.calibration.family == {}
 
 

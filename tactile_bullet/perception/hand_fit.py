@@ -203,13 +203,15 @@ def _spread(geometry: np.ndarray, measured: np.ndarray, shapes: Sequence[str],
     return np.sqrt((SIGMA_INFLATE * squares + prior * start.sigma**2) / (count + prior))
 
 
-def _alternate(measured, shapes, sizes, start: Calibration, strength: float, first=None):
+def _alternate(measured, shapes, sizes, start: Calibration, strength: float, first=None,
+               per_family: bool = False):  # fmt: skip
     """Coefficients after ``ROUNDS`` alternations; ``first`` the geometry under ``start``
-    when already known (every strength and fold shares it). Families whose every grasp has
-    known sizes get an offset of their own; where every grasp has, sigma is refitted too."""
+    when already known (every strength and fold shares it). ``per_family``: families whose
+    every grasp has known sizes get an offset of their own, and where every grasp has, sigma
+    is refitted too."""
     cal = start
     unknown = {s for s, z in zip(shapes, sizes, strict=True) if z is None}
-    families = [n for n in dict.fromkeys(shapes) if n not in unknown]
+    families = [n for n in dict.fromkeys(shapes) if per_family and n not in unknown]
     for k in range(ROUNDS):
         if k == 0 and first is not None:
             geometry = first
@@ -217,7 +219,7 @@ def _alternate(measured, shapes, sizes, start: Calibration, strength: float, fir
             rows = zip(measured, shapes, sizes, strict=True)
             geometry = np.array([_geometry(m, s, z, cal) for m, s, z in rows])
         cal = _regress(geometry, measured, start, strength, shapes, families)
-    if all(z is not None for z in sizes):
+    if per_family and all(z is not None for z in sizes):
         cal = replace(cal, sigma=_spread(geometry, measured, shapes, cal, start))
     return cal
 
@@ -299,7 +301,11 @@ def fit_hand(
     first = np.array([_geometry(m, s, z, start) for m, s, z in zip(measured, shapes, resolved,
                                                                    strict=True)])  # fmt: skip
     rows = []
-    for strength in (None, *strengths):
+    # with known sizes each pull is tried with and without family terms (after: a tie keeps
+    # the simpler model)
+    options = (False, True) if any(z is not None for z in resolved) else (False,)
+    candidates = [(None, False)] + [(s, p) for s in strengths for p in options]
+    for strength, per_family in candidates:
         right, margin = 0, 0.0
         for f in range(k):
             train, test = fold != f, fold == f
@@ -310,11 +316,11 @@ def fit_hand(
                 idx = np.flatnonzero(train)
                 picked = [shapes[i] for i in idx], [resolved[i] for i in idx]
                 pull = strength * len(idx)
-                cal = _alternate(measured[idx], *picked, start, pull, first[idx])
+                cal = _alternate(measured[idx], *picked, start, pull, first[idx], per_family)
             idx = np.flatnonzero(test)
             r, c = _held_out(measured[idx], [shapes[i] for i in idx], families, cal)
             right, margin = right + r, margin + c
-        rows.append({"strength": strength, "held_out_right": right,
+        rows.append({"strength": strength, "family_terms": per_family, "held_out_right": right,
                      "held_out_margin": margin / len(shapes)})  # fmt: skip
     best = rows[0]
     for row in rows[1:]:
@@ -325,13 +331,15 @@ def fit_hand(
     strength = best["strength"]
     cal = start
     if strength is not None:
-        cal = _alternate(measured, shapes, resolved, start, strength * len(shapes), first)
+        cal = _alternate(measured, shapes, resolved, start, strength * len(shapes), first,
+                         best["family_terms"])  # fmt: skip
     report = {
         "grasps": len(shapes),
         "folds": k,
         "known_sizes": sum(z is not None for z in resolved),
         "candidates": rows,
         "strength": strength,
+        "family_terms": best["family_terms"],
         "held_out_accuracy": best["held_out_right"] / len(shapes),
         "start_held_out_accuracy": rows[0]["held_out_right"] / len(shapes),
     }

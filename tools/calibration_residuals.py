@@ -9,7 +9,15 @@ its mean by where the pad meets the section (the sideways fraction, 0 in the fin
 depends on the family or on the contact's place, not on the finger, is one the linear
 correction cannot take up (docs/calibration.md, "Why MuJoCo stays under 97%").
 
-Usage: python tools/calibration_residuals.py --data DIR   (e.g. tools/other_hand_sets.py's)
+With ``--oracle`` it also splits each shape's grasps as ``tools/hand_calibration.py`` does
+(first half: pool, rest: test), regresses the coefficients on the pool at the true sizes and
+poses, and prints the test accuracy of one set of coefficients, of those plus a J3 and J0
+offset per family (each family's mean residual on the pool), and of those with each angle's
+sigma set to the pool's within-family residual spread: what per-family terms can give where
+the sizes are known (~1 min).
+
+Usage: python tools/calibration_residuals.py --data DIR [--oracle]   (DIR e.g.
+tools/other_hand_sets.py's)
 """
 
 from __future__ import annotations
@@ -43,20 +51,56 @@ def oracle(geometry: np.ndarray, measured: np.ndarray) -> Calibration:
     return Calibration(**coef)
 
 
-def main() -> None:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--data", required=True)
-    args = ap.parse_args()
-    records = [r for r in records_from(args.data)
-               if "no_contact" not in r.flags and r.shape in _TABLE]  # fmt: skip
-    if not records:
-        sys.exit(f"{args.data} holds no grasp of a fitted shape")
+def features(records) -> tuple[np.ndarray, np.ndarray]:
+    """(geometric features at the true sizes and poses, measured J3 and J0) of ``records``."""
     geometry = np.array([
         geometric_features(_TABLE[r.shape], {k: np.array([v]) for k, v in r.params.items()},
                            np.array([[r.pose.offset[0], r.pose.offset[2], r.pose.rotation]]))[0]
         for r in records
     ])  # fmt: skip
-    measured = np.array([measured_features(r.fci_angles()) for r in records])
+    return geometry, np.array([measured_features(r.fci_angles()) for r in records])
+
+
+def oracle_accuracies(records) -> None:
+    """Test accuracy of coefficients fitted on the pool at the true sizes (module doc)."""
+    from dataclasses import replace
+
+    from tactile_bullet.perception.shape_fit import fit_family
+    from tactile_bullet.perception.shape_model import load_calibration
+
+    families = sorted({r.shape for r in records})
+    by_shape = {s: [r for r in records if r.shape == s] for s in families}
+    pool = [r for v in by_shape.values() for r in v[: len(v) // 2]]
+    test = [r for v in by_shape.values() for r in v[len(v) // 2 :]]
+    geometry, measured = features(pool)
+    fitted = oracle(geometry, measured)
+    one = replace(load_calibration(), intercept=fitted.intercept, gain=fitted.gain,
+                  side=fitted.side)  # fmt: skip
+    labels = np.array([r.shape for r in pool])
+    res = measured - one.apply(geometry)
+    offsets = {s: res[labels == s].mean(axis=0) for s in families}
+    within = np.concatenate([res[labels == s] - offsets[s] for s in families])
+    per_family = replace(one, family=offsets)
+    spread = replace(per_family, sigma=np.maximum(within.std(axis=0), 0.005))
+    for name, cal in (("one set of coefficients", one), ("+ an offset per family", per_family),
+                      ("+ within-family sigma", spread)):  # fmt: skip
+        right = 0
+        for r in test:
+            scores = {s: fit_family(r.fci_angles(), s, cal).score for s in families}
+            right += min(scores, key=scores.get) == r.shape
+        print(f"oracle, {name}: {100 * right / len(test):.1f}% of {len(test)} test grasps")
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--data", required=True)
+    ap.add_argument("--oracle", action="store_true")
+    args = ap.parse_args()
+    records = [r for r in records_from(args.data)
+               if "no_contact" not in r.flags and r.shape in _TABLE]  # fmt: skip
+    if not records:
+        sys.exit(f"{args.data} holds no grasp of a fitted shape")
+    geometry, measured = features(records)
     shapes = np.array([r.shape for r in records])
     cal = oracle(geometry, measured)
     res = np.degrees(measured - cal.apply(geometry))
@@ -87,6 +131,8 @@ def main() -> None:
         m = (slope >= lo) & (slope < hi)
         if m.any():
             print(f"  {lo:g}-{hi:g} {m.sum():4d} {j0[m].mean():6.1f} {j0[m].std():5.1f}")
+    if args.oracle:
+        oracle_accuracies(records)
 
 
 if __name__ == "__main__":

@@ -248,6 +248,38 @@ def test_hand_model_on_a_turned_forearm_has_its_wrist_welded_and_palm_frame_kept
         assert np.abs(where).max() < 3e-3 and np.abs(facing).max() < 0.1
 
 
+def test_welding_the_wrist_keeps_the_models_skip_of_palm_to_finger_contacts(tmp_path):
+    """MuJoCo skips a body's contacts with its parent unless the parent is welded to the world.
+    A model written with a moving wrist and self-collision (the Menagerie's) lets its knuckles
+    overlap the palm; welding the wrist must not turn that overlap into contacts that throw the
+    fingers at the first step."""
+    import mujoco
+
+    from tactile_bullet.sim.engines.mujoco_hand import load_hand_spec
+
+    path = _prefixed_hand(tmp_path, wrist=True)
+    text = path.read_text().replace('conaffinity="0"', 'conaffinity="1"', 1)  # self-collision
+    path.write_text(text)
+    model = load_hand_spec(path).compile()
+    data = mujoco.MjData(model)
+    mujoco.mj_forward(model, data)
+    body = lambda g: mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_BODY, model.geom_bodyid[g])  # noqa: E731
+    parent = lambda g: model.body_parentid[model.geom_bodyid[g]]  # noqa: E731
+    touching = [(body(c.geom1), body(c.geom2)) for c in data.contact[: data.ncon]
+                if model.geom_bodyid[c.geom1] == parent(c.geom2)
+                or model.geom_bodyid[c.geom2] == parent(c.geom1)]  # fmt: skip
+    assert not touching
+    # the knuckles do overlap the palm: without the skip they would touch it
+    spec = load_hand_spec(path)
+    for exclude in list(spec.excludes):
+        spec.delete(exclude)
+    model = spec.compile()
+    data = mujoco.MjData(model)
+    mujoco.mj_forward(model, data)
+    pairs = {tuple(sorted((body(c.geom1), body(c.geom2)))) for c in data.contact[: data.ncon]}
+    assert ("rh_ffknuckle", "rh_palm") in pairs
+
+
 def test_hand_model_without_a_required_actuator_exits_2_naming_it(tmp_path, capsys):
     path = _prefixed_hand(tmp_path)
     path.write_text(path.read_text().replace('name="rh_A_MFJ0"', 'name="rh_A_MFJX"'))

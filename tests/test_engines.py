@@ -280,6 +280,42 @@ def test_welding_the_wrist_keeps_the_models_skip_of_palm_to_finger_contacts(tmp_
     assert ("rh_ffknuckle", "rh_palm") in pairs
 
 
+def test_independent_hand_tool_replaces_missing_meshes_and_drops_visuals(tmp_path):
+    """tools/independent_hand.py makes a model whose meshes are absent loadable: a missing
+    fingertip mesh becomes a capsule of the pad's size, visual geoms go, the rest is kept."""
+    import mujoco
+
+    from tactile_bullet.errors import UsageError
+    from tactile_bullet.sim.engines.mujoco_hand import load_hand_spec
+
+    spec = importlib.util.spec_from_file_location("ih", REPO / "tools" / "independent_hand.py")
+    tool = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(tool)
+    path = _prefixed_hand(tmp_path, wrist=True)
+    text = path.read_text().replace(
+        "<asset>", '<asset>\n    <mesh file="f_distal_pst.obj"/>\n    <mesh file="palm.obj"/>', 1
+    )
+    pad = '<geom type="capsule" size="0.008 0.012" pos="0 0 0.012" material="skin"/>'
+    assert text.count(pad) == 4
+    text = text.replace(pad, '<geom type="mesh" mesh="f_distal_pst"/>', 1)
+    palm = '<body name="rh_palm" pos="0 0 0.02">'
+    visual = '<geom type="mesh" mesh="palm" contype="0" conaffinity="0"/>'
+    text = text.replace(palm, palm + visual, 1)
+    path.write_text(text)
+    with pytest.raises(UsageError):
+        load_hand_spec(path)  # the mesh files are not there
+    tree, changes = tool.collision_copy(path)
+    out = tmp_path / "copy.xml"
+    tree.write(out, encoding="unicode")
+    assert changes == ["rh_ffdistal: f_distal_pst -> capsule 0.0085 0.008"]
+    model = load_hand_spec(out).compile()
+    ffdistal = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, "rh_ffdistal")
+    geoms = [g for g in range(model.ngeom) if model.geom_bodyid[g] == ffdistal]
+    assert [model.geom_type[g] for g in geoms] == [mujoco.mjtGeom.mjGEOM_CAPSULE]
+    assert np.allclose(model.geom_size[geoms[0]][:2], [0.0085, 0.008])
+    assert model.nmesh == 0
+
+
 def test_hand_model_without_a_required_actuator_exits_2_naming_it(tmp_path, capsys):
     path = _prefixed_hand(tmp_path)
     path.write_text(path.read_text().replace('name="rh_A_MFJ0"', 'name="rh_A_MFJX"'))

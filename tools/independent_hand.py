@@ -81,8 +81,10 @@ def collision_copy(source: Path) -> tuple[ET.ElementTree, list[str]]:
             del geom.attrib["mesh"]
             geom.attrib.update(stand_in)
             changes.append(f"{body}: {mesh} -> {stand_in['type']} {stand_in['size']}")
+    used = {g.get("material") for g in root.iter("geom")}
     for material in [] if asset is None else asset.findall("material"):
-        asset.remove(material)  # only visual geoms used them
+        if material.get("name") not in used:
+            asset.remove(material)  # only the dropped visual geoms used it
     return tree, changes
 
 

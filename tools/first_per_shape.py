@@ -2,9 +2,11 @@
 
 ``tactile-bullet calibrate`` fits a hand from every grasp of ``--data``; to measure what a few
 grasps per shape give (docs/doubt.md, docs/calibration.md) this writes the first ``--per-shape``
-grasps of each shape that touched their object (in the dataset's order) to a new record folder.
+grasps of each shape that touched their object (in the dataset's order) to a new record folder;
+``--skip K`` passes over each shape's first K such grasps first (the test grasps that follow a
+calibration pool).
 
-Usage: python tools/first_per_shape.py DATA --per-shape 10 --out KNOWN
+Usage: python tools/first_per_shape.py DATA --per-shape 10 --out KNOWN [--skip 0]
 """
 
 from __future__ import annotations
@@ -25,16 +27,21 @@ def main() -> None:
     ap.add_argument("data")
     ap.add_argument("--per-shape", type=int, required=True)
     ap.add_argument("--out", required=True)
+    ap.add_argument("--skip", type=int, default=0, help="each shape's first grasps passed over")
     args = ap.parse_args()
-    if args.per_shape < 1:
-        sys.exit("--per-shape must be at least 1")
+    if args.per_shape < 1 or args.skip < 0:
+        sys.exit("--per-shape must be at least 1 and --skip at least 0")
     out = Path(args.out)
     if out.exists() and any(out.iterdir()):
         sys.exit(f"{out} is not empty: name a new folder")
     seen: dict[str, int] = {}
+    passed: dict[str, int] = {}
     kept = []
     for rec in records_from(args.data):
         if "no_contact" in rec.flags or seen.get(rec.shape, 0) >= args.per_shape:
+            continue
+        if passed.get(rec.shape, 0) < args.skip:
+            passed[rec.shape] = passed.get(rec.shape, 0) + 1
             continue
         seen[rec.shape] = seen.get(rec.shape, 0) + 1
         kept.append(rec)

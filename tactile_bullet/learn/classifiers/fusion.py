@@ -181,8 +181,10 @@ class FusionClassifier(ClassifierMixin, BaseEstimator):
         check_is_fitted(self)
         X = validate_data(self, X, reset=False)
         width = joint_columns(X.shape[1])
-        scores = self.shape_fit_.scores(X[:, -width:])
         log_votes = self._log_votes(self.trees_, X[:, :-width])
+        if self.weight_ == 0:  # the trees alone: no shape fit to run
+            return log_votes
+        scores = self.shape_fit_.scores(X[:, -width:])
         return fuse(log_votes, scores, self.weight_, self.reference_score_, self.sharpness)
 
     def predict_proba(self, X) -> np.ndarray:
@@ -191,4 +193,5 @@ class FusionClassifier(ClassifierMixin, BaseEstimator):
         return p / p.sum(axis=1, keepdims=True)
 
     def predict(self, X) -> np.ndarray:
-        return self.classes_[np.argmax(self._fused(X), axis=1)]
+        z = self._fused(X)  # checks fitted before classes_ is read
+        return self.classes_[np.argmax(z, axis=1)]

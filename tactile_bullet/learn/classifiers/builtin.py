@@ -1,8 +1,8 @@
 """Built-in plugin: registers ``svm``, ``knn``, ``som``, ``dtw-template``, ``shape-fit``
 (training-free, on ``raw-joints``), ``tcn`` (on the ``time-series`` descriptor), ``extra-trees``,
 ``fusion`` (extra-trees on the time series x the shape fit, on ``time-series+robust-joints``)
-and, when its module is present, ``neural-forest``. Factories import their estimator on first use, so loading
-the registry does not import scikit-learn."""
+and, when its module is present, ``neural-forest``. Factories import their estimator on first
+use, so loading the registry does not import scikit-learn."""
 
 from __future__ import annotations
 

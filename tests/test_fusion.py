@@ -81,6 +81,16 @@ def test_fusion_learns_synthetic_grasps_and_keeps_its_chosen_weight(fused_model,
     assert np.mean(est.classes_[np.argmax(proba, axis=1)] == y) >= 0.8
 
 
+def test_a_saved_fusion_model_loads_and_answers_the_same(fused_model, synthetic_split, tmp_path):
+    from tactile_bullet.learn.models import load_model, save_model
+
+    _, test = synthetic_split
+    loaded = load_model(save_model(tmp_path / "fusion.npz", fused_model))
+    np.testing.assert_array_equal(loaded.predict_records(test[:5]),
+                                  fused_model.predict_records(test[:5]))  # fmt: skip
+    assert loaded.estimator.weight_ == fused_model.estimator.weight_
+
+
 def test_weight_zero_is_the_extra_trees_alone(synthetic_split):
     train, test = synthetic_split
     desc = plugins.get_descriptor(DESCRIPTOR)

@@ -95,6 +95,8 @@ class FusionClassifier(ClassifierMixin, BaseEstimator):
     """The layout this classifier reads: time-series columns, then the joints."""
     accepted_descriptors = ("time-series+raw-joints",)
     """Same columns, the joints not zeroed on the open hand."""
+    trusted_types = ("tactile_bullet.learn.classifiers.shape_fit.ShapeFitClassifier",)
+    """What a saved model holds besides scikit-learn's own types (``learn/models.py``)."""
 
     def __init__(self, n_estimators=100, weight="auto", sharpness=8.0, tolerance=0.01,
                  folds=3, random_state=0):  # fmt: skip

@@ -123,7 +123,8 @@ def test_fusion_reads_only_its_layout_and_shape_classes(synthetic_split):
 @pytest.mark.parametrize(
     ("params", "match"),
     [({"weight": -1}, "weight"), ({"weight": "big"}, "weight"), ({"sharpness": -2}, "sharpness"),
-     ({"tolerance": 1.5}, "tolerance"), ({"folds": 1}, "folds")],
+     ({"tolerance": 1.5}, "tolerance"), ({"folds": 1}, "folds"),
+     ({"n_estimators": 0}, "n_estimators")],
 )  # fmt: skip
 def test_bad_parameters_are_a_usage_error_before_training(params, match, synthetic_split):
     train, _ = synthetic_split

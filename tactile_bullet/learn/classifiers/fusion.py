@@ -112,6 +112,9 @@ class FusionClassifier(ClassifierMixin, BaseEstimator):
         return dict.fromkeys(_GENERIC_FIT_CHECKS, _ANY_FIT)
 
     def _check_params(self) -> None:
+        n = self.n_estimators
+        if isinstance(n, bool) or not isinstance(n, int | np.integer) or n < 1:
+            raise ValueError(f"n_estimators must be an integer >= 1, got {n!r}")
         if not (isinstance(self.weight, str) and self.weight == "auto"):
             if isinstance(self.weight, bool) or not isinstance(self.weight, int | float):
                 raise ValueError(f"weight must be 'auto' or a number >= 0, got {self.weight!r}")
@@ -144,7 +147,12 @@ class FusionClassifier(ClassifierMixin, BaseEstimator):
         width = joint_columns(X.shape[1])
         from .shape_fit import ShapeFitClassifier
 
-        self.classes_ = np.unique(y)
+        self.classes_, counts = np.unique(y, return_counts=True)
+        if self.weight == "auto" and counts.min() < 2:  # before the shape fits, not after
+            raise ValueError(
+                "fusion needs at least 2 training grasps of each shape to choose its weight "
+                "on held-out folds (or set weight to a number)"
+            )
         self.shape_fit_ = ShapeFitClassifier().fit(X[:, -width:], y)  # checks the classes
         series = X[:, :-width]
         scores = self.shape_fit_.scores(X[:, -width:])
@@ -160,12 +168,7 @@ class FusionClassifier(ClassifierMixin, BaseEstimator):
     def _choose_weight(self, series: np.ndarray, y: np.ndarray, scores: np.ndarray) -> float:
         from sklearn.model_selection import StratifiedKFold
 
-        fewest = int(np.unique(y, return_counts=True)[1].min())
-        if fewest < 2:
-            raise ValueError(
-                "fusion needs at least 2 training grasps of each shape to choose its weight "
-                "on held-out folds (or set weight to a number)"
-            )
+        fewest = int(np.unique(y, return_counts=True)[1].min())  # >= 2, checked in fit
         split = StratifiedKFold(min(self.folds, fewest), shuffle=True, random_state=0)
         log_votes = np.empty((len(y), len(self.classes_)))
         for train, held in split.split(series, y):

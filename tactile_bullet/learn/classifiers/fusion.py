@@ -87,8 +87,8 @@ class FusionClassifier(ClassifierMixin, BaseEstimator):
     Parameters: ``n_estimators`` trees (seeded by ``random_state``); ``weight`` of the shape
     fit (``"auto"``: chosen on training folds, ``folds`` of them, within ``tolerance`` of the
     best held-out accuracy); ``sharpness`` of the trust.
-    Fitted attributes: ``classes_``, ``trees_``, ``weight_``, ``reference_score_``,
-    ``held_out_accuracy_`` (weight -> accuracy, empty with a given weight).
+    Fitted attributes: ``classes_``, ``trees_``, ``weight_``, ``reference_score_`` (NaN with
+    weight 0), ``held_out_accuracy_`` (weight -> accuracy, empty with a given weight).
     """
 
     required_descriptor = "time-series+robust-joints"
@@ -155,13 +155,14 @@ class FusionClassifier(ClassifierMixin, BaseEstimator):
             )
         self.shape_fit_ = ShapeFitClassifier().fit(X[:, -width:], y)  # checks the classes
         series = X[:, :-width]
-        scores = self.shape_fit_.scores(X[:, -width:])
-        self.reference_score_ = float(np.median(scores.min(axis=1)))
         self.held_out_accuracy_ = {}
-        if self.weight == "auto":
-            self.weight_ = self._choose_weight(series, y, scores)
-        else:
-            self.weight_ = float(self.weight)
+        self.weight_ = 0.0 if self.weight == "auto" else float(self.weight)
+        self.reference_score_ = float("nan")  # weight 0: the shape fit has no say
+        if self.weight == "auto" or self.weight_ > 0:
+            scores = self.shape_fit_.scores(X[:, -width:])
+            self.reference_score_ = float(np.median(scores.min(axis=1)))
+            if self.weight == "auto":
+                self.weight_ = self._choose_weight(series, y, scores)
         self.trees_ = self._trees().fit(series, y)
         return self
 

@@ -248,6 +248,74 @@ def test_hand_model_on_a_turned_forearm_has_its_wrist_welded_and_palm_frame_kept
         assert np.abs(where).max() < 3e-3 and np.abs(facing).max() < 0.1
 
 
+def test_welding_the_wrist_keeps_the_models_skip_of_palm_to_finger_contacts(tmp_path):
+    """MuJoCo skips a body's contacts with its parent unless the parent is welded to the world.
+    A model written with a moving wrist and self-collision (the Menagerie's) lets its knuckles
+    overlap the palm; welding the wrist must not turn that overlap into contacts that throw the
+    fingers at the first step."""
+    import mujoco
+
+    from tactile_bullet.sim.engines.mujoco_hand import load_hand_spec
+
+    path = _prefixed_hand(tmp_path, wrist=True)
+    text = path.read_text().replace('conaffinity="0"', 'conaffinity="1"', 1)  # self-collision
+    path.write_text(text)
+    model = load_hand_spec(path).compile()
+    data = mujoco.MjData(model)
+    mujoco.mj_forward(model, data)
+    body = lambda g: mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_BODY, model.geom_bodyid[g])  # noqa: E731
+    parent = lambda g: model.body_parentid[model.geom_bodyid[g]]  # noqa: E731
+    touching = [(body(c.geom1), body(c.geom2)) for c in data.contact[: data.ncon]
+                if model.geom_bodyid[c.geom1] == parent(c.geom2)
+                or model.geom_bodyid[c.geom2] == parent(c.geom1)]  # fmt: skip
+    assert not touching
+    # the knuckles do overlap the palm: without the skip they would touch it
+    spec = load_hand_spec(path)
+    for exclude in list(spec.excludes):
+        spec.delete(exclude)
+    model = spec.compile()
+    data = mujoco.MjData(model)
+    mujoco.mj_forward(model, data)
+    pairs = {tuple(sorted((body(c.geom1), body(c.geom2)))) for c in data.contact[: data.ncon]}
+    assert ("rh_ffknuckle", "rh_palm") in pairs
+
+
+def test_independent_hand_tool_replaces_missing_meshes_and_drops_visuals(tmp_path):
+    """tools/independent_hand.py makes a model whose meshes are absent loadable: a missing
+    fingertip mesh becomes a capsule of the pad's size, visual geoms go, the rest is kept."""
+    import mujoco
+
+    from tactile_bullet.errors import UsageError
+    from tactile_bullet.sim.engines.mujoco_hand import load_hand_spec
+
+    spec = importlib.util.spec_from_file_location("ih", REPO / "tools" / "independent_hand.py")
+    tool = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(tool)
+    path = _prefixed_hand(tmp_path, wrist=True)
+    text = path.read_text().replace(
+        "<asset>", '<asset>\n    <mesh file="f_distal_pst.obj"/>\n    <mesh file="palm.obj"/>', 1
+    )
+    pad = '<geom type="capsule" size="0.008 0.012" pos="0 0 0.012" material="skin"/>'
+    assert text.count(pad) == 4
+    text = text.replace(pad, '<geom type="mesh" mesh="f_distal_pst"/>', 1)
+    palm = '<body name="rh_palm" pos="0 0 0.02">'
+    visual = '<geom type="mesh" mesh="palm" contype="0" conaffinity="0"/>'
+    text = text.replace(palm, palm + visual, 1)
+    path.write_text(text)
+    with pytest.raises(UsageError):
+        load_hand_spec(path)  # the mesh files are not there
+    tree, changes = tool.collision_copy(path)
+    out = tmp_path / "copy.xml"
+    tree.write(out, encoding="unicode")
+    assert changes == ["rh_ffdistal: f_distal_pst -> capsule 0.0085 0.008"]
+    model = load_hand_spec(out).compile()
+    ffdistal = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, "rh_ffdistal")
+    geoms = [g for g in range(model.ngeom) if model.geom_bodyid[g] == ffdistal]
+    assert [model.geom_type[g] for g in geoms] == [mujoco.mjtGeom.mjGEOM_CAPSULE]
+    assert np.allclose(model.geom_size[geoms[0]][:2], [0.0085, 0.008])
+    assert model.nmesh == 0
+
+
 def test_hand_model_without_a_required_actuator_exits_2_naming_it(tmp_path, capsys):
     path = _prefixed_hand(tmp_path)
     path.write_text(path.read_text().replace('name="rh_A_MFJ0"', 'name="rh_A_MFJX"'))

@@ -9,7 +9,12 @@ calibrate`` runs) from 1, 2, 5 and 10 grasps per shape of the pool (labels only;
 poses fitted; ``--known-sizes``: the records' true sizes given, poses fitted), each count drawn
 ``--draws`` times.
 
+``--learned`` adds the other way to fit a method to a hand: a registered descriptor and
+classifier trained on the same chosen grasps alone (what ``tactile-bullet train --data KNOWN``
+does with them), e.g. ``signature:knn:n_neighbors=1`` (one nearest known grasp).
+
 Usage: python tools/hand_calibration.py --data DIR [--draws 2] [--counts 1,2,5,10] [--known-sizes]
+       [--learned signature:knn:n_neighbors=1,coupled-joints:knn:n_neighbors=1]
 """
 
 from __future__ import annotations
@@ -35,12 +40,26 @@ def accuracy(records, families, cal) -> float:
     return float(np.mean([n == r.shape for n, r in zip(names, records, strict=True)]))
 
 
+def learned_accuracy(method: str, chosen, test) -> float:
+    """``descriptor:classifier[:key=value...]`` trained on ``chosen`` alone, scored on ``test``."""
+    from tactile_bullet.plugins import get_classifier, get_descriptor
+
+    descriptor, classifier, *params = method.split(":")
+    kwargs = {k: int(v) if v.isdigit() else v for k, v in (p.split("=", 1) for p in params)}
+    d = get_descriptor(descriptor)
+    model = get_classifier(classifier, **kwargs)
+    model.fit(np.asarray(d.transform(chosen), float), [r.shape for r in chosen])
+    names = model.predict(np.asarray(d.transform(test), float))
+    return float(np.mean([n == r.shape for n, r in zip(names, test, strict=True)]))
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--data", required=True)
     ap.add_argument("--draws", type=int, default=2)
     ap.add_argument("--counts", default="1,2,5,10")
     ap.add_argument("--known-sizes", action="store_true")
+    ap.add_argument("--learned", default="", help="descriptor:classifier[:k=v],... to train")
     args = ap.parse_args()
     records = [r for r in records_from(args.data)
                if "no_contact" not in r.flags and r.shape in fitted_shapes()]  # fmt: skip
@@ -59,6 +78,8 @@ def main() -> None:
             print(f"{n} per shape: pool too small ({smallest})")
             continue
         scores, kept, took = [], 0, []
+        methods = [m for m in args.learned.split(",") if m]
+        learned: dict[str, list[float]] = {m: [] for m in methods}
         for _ in range(args.draws if n < smallest else 1):
             chosen = [v[i] for v in pool.values() for i in rng.choice(len(v), n, replace=False)]
             sizes = [dict(r.params) for r in chosen] if args.known_sizes else None
@@ -67,9 +88,13 @@ def main() -> None:
             took.append(time.perf_counter() - t0)
             kept += hand.kept_start
             scores.append(accuracy(test, families, hand.calibration))
+            for m in methods:
+                learned[m].append(learned_accuracy(m, chosen, test))
         print(f"{n} per shape: {100 * np.mean(scores):.1f}% "
               f"(draws: {', '.join(f'{100 * s:.1f}' for s in scores)}; shipped kept in {kept}; "
               f"calibrate took {np.mean(took):.0f} s)", flush=True)  # fmt: skip
+        for m, acc in learned.items():
+            print(f"  {m} trained on them alone: {100 * np.mean(acc):.1f}%", flush=True)
 
 
 if __name__ == "__main__":

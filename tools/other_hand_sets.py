@@ -7,9 +7,13 @@ that is not the one the shape fit's shipped coefficients were fitted on:
 - ``mujoco``: the MuJoCo engine's hand (a physical J1/J2 tendon, distal phalanx first);
 - ``shifted-distal``: Bullet with every physics knob +20% (friction, thresT, closing speed;
   phalanges +2%), the distal-first tendon rule, sensors reading J3 +3 deg and J2 -1 deg;
-- ``shifted-equal``: Bullet at -20%, the equal-torque tendon rule, J3 -2 deg and J2 -1 deg.
+- ``shifted-equal``: Bullet at -20%, the equal-torque tendon rule, J3 -2 deg and J2 -1 deg;
+- ``independent``: the MuJoCo engine driving the hand model named by ``--hand-model`` (the
+  Menagerie's independently written Shadow hand, ``tools/independent_hand.py``), default
+  physics otherwise.
 
 Usage: python tools/other_hand_sets.py --hand mujoco --out DIR [--per-shape 24] [--workers 2]
+       python tools/other_hand_sets.py --hand independent --hand-model HAND.xml --out DIR
 (about a minute per 120 grasps on two free cores).
 """
 
@@ -49,6 +53,7 @@ HANDS = {
                                    joint_offsets=_offsets(3.0))),
     "shifted-equal": (29, replace(shifted(ControllerSettings(), -0.2), coupling="equal-torque",
                                   joint_offsets=_offsets(-2.0))),
+    "independent": (41, ControllerSettings(engine="mujoco")),
 }  # fmt: skip
 """hand name -> (seed of the size and offset draws, controller)."""
 
@@ -59,8 +64,16 @@ def main() -> None:
     ap.add_argument("--out", required=True)
     ap.add_argument("--per-shape", type=int, default=24)
     ap.add_argument("--workers", type=int, default=2)
+    ap.add_argument("--hand-model", help="the MJCF hand of --hand independent")
     args = ap.parse_args()
     seed, ctl = HANDS[args.hand]
+    if (args.hand == "independent") != bool(args.hand_model):
+        sys.exit("--hand-model goes with --hand independent, and it needs one")
+    if args.hand_model:
+        from tactile_bullet.sim.engines.mujoco_hand import load_hand_spec
+
+        load_hand_spec(args.hand_model)  # a bad file stops here, before any grasp
+        ctl = replace(ctl, hand_model=str(Path(args.hand_model).resolve()))
     out = Path(args.out)
     if out.exists() and any(out.iterdir()):
         sys.exit(f"{out} is not empty: name a new folder")

@@ -97,6 +97,28 @@ def _weld_wrist(spec) -> None:
             shadow_name(actuator.target, "joint") or ""
         ).startswith("WR"):
             spec.delete(actuator)
+    before = _static_bodies(spec)
     for joint in list(spec.joints):
         if shadow_name(joint.name, "joint") in WRIST_JOINTS:
             spec.delete(joint)
+    # MuJoCo skips contacts between a body and its parent, unless the parent is welded to the
+    # world: with the wrist welded, the palm's knuckles would start the grasp pressed into the
+    # palm (a model written with a moving wrist lets them overlap it). Keep the skip the model
+    # had for every parent the weld made static.
+    for parent in _static_bodies(spec) - before:
+        body = spec.body(parent)
+        for child in body.bodies:
+            if child.joints:
+                spec.add_exclude(bodyname1=parent, bodyname2=child.name)
+
+
+def _static_bodies(spec) -> set[str]:
+    """Names of the bodies welded to the world (no joint between them and it), the world
+    excluded."""
+    out: set[str] = set()
+    todo = [b for b in spec.worldbody.bodies if not b.joints]
+    while todo:
+        body = todo.pop()
+        out.add(body.name)
+        todo += [b for b in body.bodies if not b.joints]
+    return out

@@ -76,6 +76,38 @@ def test_known_sizes_fit_only_the_pose_and_still_recover_the_hand():
     )
 
 
+FAMILY_RAD = {"sphere": np.array([[0.0] * 4, [0.15] * 4]),
+              "cylinder": np.array([[0.0] * 4, [-0.1] * 4])}  # fmt: skip
+SQUEEZING = replace(OTHER, family=FAMILY_RAD)
+"""A hand that also closes J0 further on a sphere and less far on a cylinder than the finger
+chain says (as MuJoCo's hand does on its families, tools/calibration_residuals.py)."""
+
+
+def test_known_sizes_learn_how_far_the_hand_squeezes_each_family():
+    from tactile_bullet.perception.hand_fit import _alternate
+
+    known = other_hand_grasps(slice(0, 4), SQUEEZING)
+    angles, shapes, sizes = ([g[i] for g in known] for i in range(3))
+    measured = np.array([np.stack([a[0], a[1] + a[2]]) for a in angles])
+    # a weak pull toward the shipped coefficients, as cross-validation picks for MuJoCo's hand
+    cal = _alternate(measured, shapes, sizes, SHIPPED, 0.25 * len(shapes), per_family=True)
+    assert set(cal.family) == {"sphere", "cylinder"}
+    # the sphere's J0 offset lies above the cylinder's on every finger, as the hand's (by
+    # 0.25 rad; the ridge pull toward none shrinks it), and J3's stay near the hand's none
+    gap = cal.family["sphere"] - cal.family["cylinder"]
+    assert np.all(gap[1] > 0.12) and np.all(np.abs(gap[0]) < 0.03)
+    unseen = other_hand_grasps(slice(4, 6), SQUEEZING)
+    without = replace(cal, family={})
+    assert own_family_residual(unseen, cal) < 0.5 * own_family_residual(unseen, without)
+    # calibrate tries each pull with and without family terms where sizes are known, and
+    # never fits them from labels alone (the fitted sizes would take the offsets up)
+    hand = fit_hand(angles, shapes, sizes=sizes, strengths=(0.25,), folds=2)
+    assert [c["family_terms"] for c in hand.report["candidates"]] == [False, False, True]
+    blind = fit_hand(angles, shapes, strengths=(0.25,), folds=2)
+    assert [c["family_terms"] for c in blind.report["candidates"]] == [False, False]
+    assert blind.calibration.family == {}
+
+
 def test_the_shipped_hand_itself_keeps_its_coefficients_in_effect():
     known = other_hand_grasps(slice(0, 4), SHIPPED)
     hand = fit_hand([a for a, _, _ in known], [s for _, s, _ in known], strengths=(1.0,), folds=2)
@@ -109,6 +141,25 @@ def test_use_calibration_changes_the_fit_only_inside_its_block():
     assert fit_family(angles, "sphere").residual == before
 
 
+def test_the_doubt_cross_check_reads_a_hand_with_that_hands_calibration():
+    """The second opinion of ``learn/doubt.py`` (what ``evaluate``, ``identify`` and the
+    ``Identifier`` flag answers with) is the shape fit under the hand calibration in force: a
+    hand whose J3 reads a few degrees more on the index than on the little finger makes a
+    cylinder look tapered to the shipped coefficients, not to its own."""
+    from types import SimpleNamespace
+
+    from tactile_bullet.learn.doubt import cross_check_names
+
+    d = 0.05
+    taper = replace(SHIPPED, intercept=SHIPPED.intercept + np.array([[d, d / 3, -d / 3, -d],
+                                                                     [-d, 0, 0, d]]))  # fmt: skip
+    j3, j0 = predicted_angles("cylinder", {"radius": 0.035, "length": 0.15}, (0.0, 0.0), taper)
+    grasp = SimpleNamespace(fci_angles=lambda: np.stack([j3, j0, np.zeros(4)]))
+    assert list(cross_check_names([grasp], ["cone", "cylinder"])) == ["cone"]
+    with use_calibration(taper):
+        assert list(cross_check_names([grasp], ["cone", "cylinder"])) == ["cylinder"]
+
+
 # --- the file ---------------------------------------------------------------------------------
 
 
@@ -124,6 +175,11 @@ def test_the_file_round_trips_its_coefficients(tmp_path):
     np.testing.assert_allclose(hand.calibration.gain, OTHER.gain)
     assert hand.hand == "rh" and hand.grasps_per_shape == {"sphere": 2, "cylinder": 2}
     assert hand.report["candidates"][0]["strength"] == "shipped"
+    assert hand.calibration.family == {}
+    (tmp_path / "family").mkdir()
+    squeezing = load(_file(tmp_path / "family", SQUEEZING)).calibration
+    assert set(squeezing.family) == {"sphere", "cylinder"}
+    np.testing.assert_allclose(squeezing.family["sphere"], FAMILY_RAD["sphere"])
 
 
 @pytest.mark.parametrize(
@@ -141,6 +197,22 @@ def test_the_file_round_trips_its_coefficients(tmp_path):
 )
 def test_a_damaged_file_is_refused_on_one_line(tmp_path, edit, message):
     path = _file(tmp_path)
+    path.write_text(edit(path.read_text()))
+    with pytest.raises(UsageError, match=message):
+        load(path)
+
+
+@pytest.mark.parametrize(
+    ("edit", "message"),
+    [
+        (lambda t: t.replace("\nsphere = [[", "\nteapot = [["), "no fitted shape"),
+        (lambda t: t.replace("\nsphere = [[0.0", "\nsphere = [[1.0"), "within \\+-45 deg"),
+        (lambda t: t.replace("\nsphere = [[0.0", "\nsphere = [[[0.0]"), "family sphere must"),
+    ],
+)
+def test_a_damaged_family_offset_is_refused_on_one_line(tmp_path, edit, message):
+    path = _file(tmp_path, SQUEEZING)
+    assert "[coefficients.family]" in path.read_text()
     path.write_text(edit(path.read_text()))
     with pytest.raises(UsageError, match=message):
         load(path)

@@ -50,13 +50,23 @@ def descriptor(spec: str):
 
 def accuracy_rows(cache: Path, protocols: list[str], methods: list[tuple[str, str]],
                   trainings: list[str], scale: str = "full", seed: int = 0,
-                  doubt: bool = False, j0: bool = False) -> list[dict]:
+                  doubt: bool = False, j0: bool = False,
+                  hands: dict | None = None) -> list[dict]:  # fmt: skip
     """One row per (protocol, level, descriptor, classifier, training), as the benchmark's;
     with ``doubt`` also its ``ambiguous`` shares, calibrated as the benchmark calibrates them
     (slow: a shape fit per held-out training grasp and per test grasp). ``j0``: the test
-    grasps read as a hand that publishes only J0 = J1 + J2 is imported (``coupled.j0_only``)."""
+    grasps read as a hand that publishes only J0 = J1 + J2 is imported (``coupled.j0_only``).
+    ``hands``: engine -> shape-fit ``Calibration``: the cross-check reads each engine's grasps
+    (held-out training grasps and test grasps alike) with that engine's hand calibration, as
+    ``--hand-calibration`` has it read a hand's (the shipped coefficients for the others)."""
     from tactile_bullet.experiments.benchmark import _scored
     from tactile_bullet.learn.doubt import calibrate_margin, cross_check_names
+    from tactile_bullet.perception.shape_model import use_calibration
+
+    def hand_of(recs: list):
+        """The hand calibration of ``recs``' engine (None: the shipped coefficients)."""
+        engines = {r.controller.engine for r in recs}
+        return (hands or {}).get(engines.pop()) if len(engines) == 1 else None
 
     table = P.protocols(scale)
     loaded: dict[str, list] = {}
@@ -96,14 +106,17 @@ def accuracy_rows(cache: Path, protocols: list[str], methods: list[tuple[str, st
                     pred = np.asarray(model.predict(x_test)).astype(str)
                     ambiguous = None
                     if doubt:
-                        calibration = calibrate_margin(lambda c=clf: get_classifier(c), x, y,
-                                                       seed=seed, records=train, classifier=clf)
+                        with use_calibration(hand_of(train)):
+                            calibration = calibrate_margin(lambda c=clf: get_classifier(c), x, y,
+                                                           seed=seed, records=train,
+                                                           classifier=clf)  # fmt: skip
                         second = None
                         if calibration["cross_check"] is not None:
                             key = f"{name}/{level.name}"
                             if key not in seconds_of:
                                 classes = sorted(str(c) for c in model.classes_)
-                                seconds_of[key] = cross_check_names(test, classes)
+                                with use_calibration(hand_of(test)):
+                                    seconds_of[key] = cross_check_names(test, classes)
                             second = seconds_of[key]
                         pred, ambiguous = _scored(model, x_test, y_test, calibration, second)
                     rows.append({"protocol": name, "level": level.name, "descriptor": desc,
@@ -127,11 +140,22 @@ def main() -> None:
                          "'ambiguous' shares, as a benchmark.json for tools/doubt_report.py")
     ap.add_argument("--j0-only", action="store_true",
                     help="read the test grasps as a hand publishing only J0 = J1 + J2")
+    ap.add_argument("--hand-calibration", action="append", default=[], metavar="ENGINE=FILE",
+                    help="the cross-check reads ENGINE's grasps with this hand calibration "
+                         "(tactile-bullet calibrate's file); repeatable")
     args = ap.parse_args()
+    from tactile_bullet.realhand.hand_calibration import load
+
+    hands = {}
+    for item in args.hand_calibration:
+        engine, sep, path = item.partition("=")
+        if not sep:
+            ap.error(f"--hand-calibration takes ENGINE=FILE, got {item!r}")
+        hands[engine] = load(path).calibration
     methods = [tuple(m.split(":", 1)) for m in args.method.split(",")]
     rows = accuracy_rows(args.cache, P.resolve(args.protocol), methods,
                          args.training.split(","), args.scale, doubt=bool(args.doubt),
-                         j0=args.j0_only)  # fmt: skip
+                         j0=args.j0_only, hands=hands)  # fmt: skip
     if args.doubt:
         import json
 

@@ -82,6 +82,8 @@ def run(args: argparse.Namespace) -> int:
     else:
         verdict = (f"refitted (pull toward the shipped coefficients: {hand.strength:g} x the "
                    "calibration grasps)")  # fmt: skip
+        if r.get("family_terms"):
+            verdict += ", with an offset per shape family"
     print(f"calibrated on {counts}: {verdict}")
     print(f"held-out calibration grasps named right: {100 * r['held_out_accuracy']:.0f}% "
           f"(shipped coefficients: {100 * r['start_held_out_accuracy']:.0f}%)")  # fmt: skip

@@ -66,6 +66,20 @@ GAIN_PULL = 10.0
 """How much harder the gains and sideways terms are pulled than the intercepts: a gain trades
 against the fitted sizes (a larger gain, a smaller object), an intercept much less so."""
 
+FAMILY_PULL = 1.0
+"""How hard each family's offset (known sizes only) is pulled toward the start's (0 for the
+shipped coefficients), as a multiple of the intercepts' pull. From labels alone the fitted
+sizes take up a family's offset, and offsets fitted then named fewer grasps right on MuJoCo
+(docs/calibration.md), so there are none."""
+
+SIGMA_PRIOR = 0.25
+"""The start's sigma pooled with the residual spread of grasps of known sizes, worth this many
+times the grasps."""
+
+SIGMA_INFLATE = 1.5
+"""Residuals at fitted poses understate the spread on unseen grasps (3 pose coordinates fitted
+to 8 angles: 8 / 5); their squares are scaled by this."""
+
 MARGIN_CLIP = 10.0
 """Held-out margins (best other family's score minus the labelled one's) are clipped to
 +-this before averaging: one far-off grasp must not outvote the rest."""
@@ -111,7 +125,8 @@ def _fit_pose(measured: np.ndarray, shape: str, sizes: Mapping[str, float], cal:
 
     def cost(poses: np.ndarray) -> np.ndarray:
         z = (poses - _LO) / (_HI - _LO)
-        return _objective(measured, cal.apply(geometric_features(fam.shape, params, poses)), z, cal)
+        predicted = cal.apply(geometric_features(fam.shape, params, poses), shape)
+        return _objective(measured, predicted, z, cal)
 
     grid = _pose_grid()
     c = cost(grid)
@@ -145,37 +160,67 @@ def _geometry(measured: np.ndarray, shape: str, sizes, cal: Calibration) -> np.n
     return np.asarray(geometric_features(fam.shape, params, pose)).reshape(3, 4)
 
 
-def _regress(geometry: np.ndarray, measured: np.ndarray, start: Calibration, strength: float):
-    """Ridge regression of measured (n, 2, 4) on geometric (n, 3, 4) toward ``start``."""
+def _regress(geometry: np.ndarray, measured: np.ndarray, start: Calibration, strength: float,
+             shapes: Sequence[str] = (), families: Sequence[str] = ()) -> Calibration:  # fmt: skip
+    """Ridge regression of measured (n, 2, 4) on geometric (n, 3, 4) toward ``start``; with
+    an offset per family of ``families`` (grasps labelled ``shapes``), pulled toward
+    ``start``'s (none: 0) ``FAMILY_PULL`` times as hard as the intercepts."""
     out = {k: np.array(getattr(start, k), dtype=float) for k in ("intercept", "gain", "side")}
+    labels = np.asarray(shapes, dtype=object)
+    family = {n: np.array(start.family.get(n, np.zeros((2, 4))), dtype=float) for n in families}
     for j in range(2):
         for f in range(4):
             ok = geometry[:, 2, f] >= 0  # grasps with the object under this finger
             if not ok.any():
                 continue
             g, s = geometry[ok, j, f], np.clip(geometry[ok, 2, f], 0.0, None)
-            x = np.column_stack([np.ones(g.size), g, s])
-            prior = np.array([start.intercept[j, f], start.gain[j, f], start.side[j, f]])
+            one_hot = [(labels[ok] == n).astype(float) for n in families]
+            x = np.column_stack([np.ones(g.size), g, s, *one_hot])
+            prior = np.array([start.intercept[j, f], start.gain[j, f], start.side[j, f],
+                              *(family[n][j, f] for n in families)])  # fmt: skip
             # each coefficient's prior weighs ``strength`` grasps' worth of its regressor
             scale = np.array([1.0, GAIN_PULL * max(float(np.mean(g * g)), 1e-6),
-                              GAIN_PULL * max(float(np.mean(s * s)), 1e-3)])  # fmt: skip
+                              GAIN_PULL * max(float(np.mean(s * s)), 1e-3),
+                              *[FAMILY_PULL] * len(families)])  # fmt: skip
             lam = np.diag(strength * scale)
             theta = np.linalg.solve(x.T @ x + lam, x.T @ measured[ok, j, f] + lam @ prior)
-            out["intercept"][j, f], out["gain"][j, f], out["side"][j, f] = theta
-    return replace(start, **out, source="fitted")
+            out["intercept"][j, f], out["gain"][j, f], out["side"][j, f] = theta[:3]
+            for n, value in zip(families, theta[3:], strict=True):
+                family[n][j, f] = value
+    return replace(start, **out, family={**start.family, **family}, source="fitted")
 
 
-def _alternate(measured, shapes, sizes, start: Calibration, strength: float, first=None):
+def _spread(geometry: np.ndarray, measured: np.ndarray, shapes: Sequence[str],
+            cal: Calibration, start: Calibration) -> np.ndarray:  # fmt: skip
+    """(2, 4) sigma from the residuals of ``cal`` on grasps of known sizes, scaled by
+    ``SIGMA_INFLATE`` and pooled with ``start``'s sigma worth ``SIGMA_PRIOR`` times the
+    grasps."""
+    predicted = np.array([cal.apply(g, s) for g, s in zip(geometry, shapes, strict=True)])
+    touched = (geometry[:, 2, :] >= 0)[:, None, :]
+    squares = np.where(touched, (measured - predicted) ** 2, 0.0).sum(axis=0)
+    prior = SIGMA_PRIOR * len(shapes)
+    count = touched.sum(axis=0)
+    return np.sqrt((SIGMA_INFLATE * squares + prior * start.sigma**2) / (count + prior))
+
+
+def _alternate(measured, shapes, sizes, start: Calibration, strength: float, first=None,
+               per_family: bool = False):  # fmt: skip
     """Coefficients after ``ROUNDS`` alternations; ``first`` the geometry under ``start``
-    when already known (every strength and fold shares it)."""
+    when already known (every strength and fold shares it). ``per_family``: families whose
+    every grasp has known sizes get an offset of their own, and where every grasp has, sigma
+    is refitted too."""
     cal = start
+    unknown = {s for s, z in zip(shapes, sizes, strict=True) if z is None}
+    families = [n for n in dict.fromkeys(shapes) if per_family and n not in unknown]
     for k in range(ROUNDS):
         if k == 0 and first is not None:
             geometry = first
         else:
             rows = zip(measured, shapes, sizes, strict=True)
             geometry = np.array([_geometry(m, s, z, cal) for m, s, z in rows])
-        cal = _regress(geometry, measured, start, strength)
+        cal = _regress(geometry, measured, start, strength, shapes, families)
+    if per_family and all(z is not None for z in sizes):
+        cal = replace(cal, sigma=_spread(geometry, measured, shapes, cal, start))
     return cal
 
 
@@ -256,7 +301,11 @@ def fit_hand(
     first = np.array([_geometry(m, s, z, start) for m, s, z in zip(measured, shapes, resolved,
                                                                    strict=True)])  # fmt: skip
     rows = []
-    for strength in (None, *strengths):
+    # with known sizes each pull is tried with and without family terms (after: a tie keeps
+    # the simpler model)
+    options = (False, True) if any(z is not None for z in resolved) else (False,)
+    candidates = [(None, False)] + [(s, p) for s in strengths for p in options]
+    for strength, per_family in candidates:
         right, margin = 0, 0.0
         for f in range(k):
             train, test = fold != f, fold == f
@@ -267,11 +316,11 @@ def fit_hand(
                 idx = np.flatnonzero(train)
                 picked = [shapes[i] for i in idx], [resolved[i] for i in idx]
                 pull = strength * len(idx)
-                cal = _alternate(measured[idx], *picked, start, pull, first[idx])
+                cal = _alternate(measured[idx], *picked, start, pull, first[idx], per_family)
             idx = np.flatnonzero(test)
             r, c = _held_out(measured[idx], [shapes[i] for i in idx], families, cal)
             right, margin = right + r, margin + c
-        rows.append({"strength": strength, "held_out_right": right,
+        rows.append({"strength": strength, "family_terms": per_family, "held_out_right": right,
                      "held_out_margin": margin / len(shapes)})  # fmt: skip
     best = rows[0]
     for row in rows[1:]:
@@ -282,13 +331,15 @@ def fit_hand(
     strength = best["strength"]
     cal = start
     if strength is not None:
-        cal = _alternate(measured, shapes, resolved, start, strength * len(shapes), first)
+        cal = _alternate(measured, shapes, resolved, start, strength * len(shapes), first,
+                         best["family_terms"])  # fmt: skip
     report = {
         "grasps": len(shapes),
         "folds": k,
         "known_sizes": sum(z is not None for z in resolved),
         "candidates": rows,
         "strength": strength,
+        "family_terms": best["family_terms"],
         "held_out_accuracy": best["held_out_right"] / len(shapes),
         "start_held_out_accuracy": rows[0]["held_out_right"] / len(shapes),
     }

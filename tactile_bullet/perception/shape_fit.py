@@ -204,7 +204,7 @@ class _Family:
     def grid_prediction(self, cal: Calibration) -> np.ndarray:
         """The grid's predicted angles under ``cal`` (kept for the last calibration used)."""
         if self._cal is not cal:
-            self._cal, self._pred = cal, cal.apply(self.grid_geometry)
+            self._cal, self._pred = cal, cal.apply(self.grid_geometry, self.shape.name)
         return self._pred
 
     def values(self, z: np.ndarray) -> np.ndarray:
@@ -359,9 +359,10 @@ def _predict(state, parts, cal: Calibration) -> list[np.ndarray]:
     pass of the finger chain over all of them."""
     sections = [state[k][0].sections(cand) for k, cand in parts]
     joined = [np.concatenate([sec[i] for sec in sections]) for i in range(4)]
-    pred = cal.apply(_chain_features(*joined))
+    geometry = _chain_features(*joined)
     sizes = np.cumsum([len(cand) for _, cand in parts])[:-1]
-    return np.split(pred, sizes)
+    return [cal.apply(g, state[k][0].shape.name)
+            for (k, _), g in zip(parts, np.split(geometry, sizes), strict=True)]  # fmt: skip
 
 
 POLISH_STEPS = 4
@@ -455,7 +456,7 @@ def predicted_angles(
     cal = active_calibration() if calibration is None else calibration
     pose = np.array([[off[0], off[1], beta]])
     geo = geometric_features(fam.shape, {k: np.array([v]) for k, v in values.items()}, pose)
-    return cal.apply(geo)[0]
+    return cal.apply(geo, fam.shape.name)[0]
 
 
 def shape_fit_summary(record) -> dict | None:

@@ -223,10 +223,16 @@ def geometric_features(shape: Shape, params: Mapping[str, np.ndarray], offset) -
 class Calibration:
     """Linear correction of the geometric model, per joint group (rows J3, J0) and finger.
 
-    predicted = intercept + gain * geometric + side * sideways fraction, for fingers with the
-    object under them (a finger that misses keeps its joint limits). ``sigma`` is the
-    residual spread that weights each angle in the fit; ``loss_scale`` the soft-L1 knee (in
-    sigmas); ``penalty`` the score added per size parameter.
+    predicted = intercept + gain * geometric + side * sideways fraction (+ the family's
+    offset), for fingers with the object under them (a finger that misses keeps its joint
+    limits). ``sigma`` is the residual spread that weights each angle in the fit;
+    ``loss_scale`` the soft-L1 knee (in sigmas); ``penalty`` the score added per size
+    parameter. ``family`` maps a shape family to a (2, 4) offset (rad) added to its
+    prediction: how far a hand squeezes past first contact depends on the surface it closes
+    on in ways the planar finger chain does not see (on MuJoCo's hand J0 ends 7-11 deg short
+    on hyperboloids and 10 deg past on spheres, ``tools/calibration_residuals.py``); learnt
+    from grasps of known objects (``hand_fit.py``), none for a family it does not name. The
+    shipped coefficients have none.
     """
 
     intercept: np.ndarray = field(default_factory=lambda: np.zeros((2, 4)))
@@ -236,6 +242,7 @@ class Calibration:
     loss_scale: float = 2.0
     penalty: float = 0.0
     source: str = "defaults"
+    family: Mapping[str, np.ndarray] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
         for name in ("intercept", "gain", "side", "sigma"):
@@ -243,19 +250,37 @@ class Calibration:
             if value.shape != (2, 4) or not np.all(np.isfinite(value)):
                 raise UsageError(f"shape-fit calibration {name} must be 2 x 4 finite numbers")
             object.__setattr__(self, name, value)
+        if not isinstance(self.family, Mapping):
+            raise UsageError("shape-fit calibration family must map shape names to offsets")
+        offsets = {}
+        for name, value in self.family.items():
+            try:
+                value = np.asarray(value, dtype=float)
+            except (TypeError, ValueError):
+                value = np.empty(0)
+            if not (isinstance(name, str) and value.shape == (2, 4)) or not np.all(
+                np.isfinite(value)
+            ):
+                raise UsageError(f"shape-fit calibration family {name} must be 2 x 4 numbers")
+            offsets[name] = value
+        object.__setattr__(self, "family", offsets)
         if not np.all(self.sigma > 0):
             raise UsageError("shape-fit calibration sigma must be positive")
         if not (self.loss_scale > 0 and np.isfinite(self.penalty) and self.penalty >= 0):
             raise UsageError("shape-fit calibration loss_scale must be > 0 and penalty >= 0")
 
-    def apply(self, geometric: np.ndarray) -> np.ndarray:
-        """(..., 3, 4) geometric features -> (..., 2, 4) predicted J3, J0."""
+    def apply(self, geometric: np.ndarray, family: str | None = None) -> np.ndarray:
+        """(..., 3, 4) geometric features of shape ``family`` -> (..., 2, 4) predicted J3, J0
+        (``family`` None, or one without an offset: the coefficients alone)."""
         angles, side = geometric[..., :2, :], geometric[..., 2:3, :]
-        corrected = self.intercept + self.gain * angles + self.side * np.clip(side, 0.0, None)
+        intercept = self.intercept
+        if family in self.family:
+            intercept = intercept + self.family[family]
+        corrected = intercept + self.gain * angles + self.side * np.clip(side, 0.0, None)
         return np.where(side >= 0, corrected, angles)
 
     def to_dict(self) -> dict:
-        return {
+        doc = {
             "intercept": self.intercept.tolist(),
             "gain": self.gain.tolist(),
             "side": self.side.tolist(),
@@ -263,6 +288,9 @@ class Calibration:
             "loss_scale": self.loss_scale,
             "penalty": self.penalty,
         }
+        if self.family:  # only then: the shipped file and older hand files read the same
+            doc["family"] = {name: v.tolist() for name, v in self.family.items()}
+        return doc
 
     @classmethod
     def from_dict(cls, doc: Mapping, source: str = "dict") -> Calibration:
@@ -275,6 +303,7 @@ class Calibration:
                 loss_scale=float(doc["loss_scale"]),
                 penalty=float(doc["penalty"]),
                 source=source,
+                family=doc.get("family", {}),
             )
         except (KeyError, TypeError, ValueError) as exc:
             if isinstance(exc, UsageError):

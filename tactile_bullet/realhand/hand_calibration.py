@@ -8,6 +8,8 @@ The file is small TOML a user can read and keep beside their recordings::
     [coefficients]                   # the shape fit's correction (perception/shape_model.py)
     intercept = [[...4], [...4]]     # rows J3, J0; columns ff, mf, rf, lf (rad)
     gain = ...; side = ...; sigma = ...; loss_scale = 2.0; penalty = 0.0
+    [coefficients.family]            # only from grasps of known sizes (--sizes): an offset
+    sphere = [[...4], [...4]]        # per shape family added to its J3, J0 (rad)
     [offsets_deg]                    # intercepts' change from the shipped ones: the joint
     J3 = [...4]; J0 = [...4]         # offsets the data allowed (informational)
     [grasps_per_shape]
@@ -16,7 +18,8 @@ The file is small TOML a user can read and keep beside their recordings::
     ...
 
 Every field is checked on load (a wrong version, a missing table, coefficients that are not
-2 x 4 finite numbers, a gain outside 0.2-5): a damaged file is refused on one line, never used.
+2 x 4 finite numbers, a gain outside 0.2-5, a family offset past 45 deg or of no fitted shape):
+a damaged file is refused on one line, never used.
 The known-sizes file names each calibration object's sizes by shape (m)::
 
     [cylinder]
@@ -44,6 +47,8 @@ WHAT = "calibration file"
 """The input kind (``files.INPUT_LIMITS``): a hand calibration is a few hundred bytes."""
 GAIN_RANGE = (0.2, 5.0)
 """A gain outside this is no hand's: the fit ran away or the file was edited wrongly."""
+FAMILY_RANGE_DEG = 45.0
+"""A family offset beyond this is no hand's: the fit ran away or the file was edited wrongly."""
 _KEYS = {"version", "hand", "data", "coefficients", "offsets_deg", "grasps_per_shape", "report"}
 
 
@@ -80,8 +85,13 @@ def render(cal: Calibration, hand: str, data: str, counts: Mapping[str, int], re
     lines = ["# tactile-bullet calibrate: the shape fit's coefficients for one hand",
              f"version = {VERSION}", f"hand = {_toml_value(hand)}", f"data = {_toml_value(data)}",
              "", "[coefficients]"]  # fmt: skip
-    for key, value in cal.to_dict().items():
+    coefficients = cal.to_dict()
+    family = coefficients.pop("family", {})
+    for key, value in coefficients.items():
         lines.append(f"{key} = {_toml_value(value)}")
+    if family:  # per-family offsets (rad), fitted on grasps of known sizes
+        lines += ["", "[coefficients.family]"]
+        lines += [f"{name} = {_toml_value(value)}" for name, value in family.items()]
     lines += ["", "[offsets_deg]"]
     change = np.degrees(cal.intercept - shipped.intercept)
     lines += [f"J3 = {_toml_value(np.round(change[0], 3))}",
@@ -125,6 +135,12 @@ def load(path: str | os.PathLike) -> HandCalibration:
         raise UsageError(f"{where}: every gain must be within {lo:g}-{hi:g}, got {cal.gain}")
     from ..perception.shape_fit import fitted_shapes
 
+    for name, offset in cal.family.items():
+        if name not in fitted_shapes():
+            raise UsageError(f"{where}: coefficients.family names {name!r}: no fitted shape")
+        if not np.all(np.abs(np.degrees(offset)) <= FAMILY_RANGE_DEG):
+            raise UsageError(f"{where}: coefficients.family.{name} must lie within "
+                             f"+-{FAMILY_RANGE_DEG:g} deg")  # fmt: skip
     counts = doc["grasps_per_shape"]
     for name, n in counts.items():
         if name not in fitted_shapes():

@@ -1,7 +1,8 @@
 """Built-in plugin: registers ``svm``, ``knn``, ``som``, ``dtw-template``, ``shape-fit``
-(training-free, on ``raw-joints``), ``tcn`` (on the ``time-series`` descriptor) and, when its
-module is present, ``neural-forest``. Factories import their estimator on first use, so loading
-the registry does not import scikit-learn."""
+(training-free, on ``raw-joints``), ``tcn`` (on the ``time-series`` descriptor), ``extra-trees``,
+``fusion`` (extra-trees on the time series x the shape fit, on ``time-series+robust-joints``)
+and, when its module is present, ``neural-forest``. Factories import their estimator on first
+use, so loading the registry does not import scikit-learn."""
 
 from __future__ import annotations
 
@@ -40,6 +41,22 @@ def shape_fit(**params):
     return ShapeFitClassifier(**params)
 
 
+def extra_trees(**params):
+    """scikit-learn's extra-trees, seeded (without a seed two trainings give two models): the
+    core tree ensemble, so the methods that need one do not depend on a plugin's."""
+    from sklearn.ensemble import ExtraTreesClassifier
+
+    params.setdefault("n_estimators", 100)
+    params.setdefault("random_state", 0)
+    return ExtraTreesClassifier(**params)
+
+
+def fusion(**params):
+    from .fusion import FusionClassifier
+
+    return FusionClassifier(**params)
+
+
 def neural_forest(**params):
     from ..neural_forest import NeuralForestClassifier
 
@@ -60,5 +77,7 @@ def register_classifiers(register):
     register("dtw-template", dtw_template)
     register("tcn", tcn)
     register("shape-fit", shape_fit)
+    register("extra-trees", extra_trees)
+    register("fusion", fusion)
     if importlib.util.find_spec("tactile_bullet.learn.neural_forest") is not None:
         register("neural-forest", neural_forest)

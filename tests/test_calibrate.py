@@ -160,6 +160,35 @@ def test_the_doubt_cross_check_reads_a_hand_with_that_hands_calibration():
         assert list(cross_check_names([grasp], ["cone", "cylinder"])) == ["cylinder"]
 
 
+def test_a_zeroed_calibration_makes_the_cross_check_read_zeroed_grasps(tmp_path):
+    """``calibrate --zeroed`` fits coefficients to angles zeroed on the open hand; a learned
+    model's doubt cross-check reads whole records, so under such a file it must zero them too,
+    or a sensor offset (here J3 tapered by 0.2 rad from index to little finger) is read as a
+    cone by a hand that grasped a cylinder."""
+    from synthetic import make_record
+
+    from tactile_bullet.hand import JOINT_NAMES
+    from tactile_bullet.learn.doubt import cross_check_names
+
+    rec = make_record("cylinder", {"radius": 0.035, "length": 0.15}, noise=0.0, samples=16)
+    bias = np.zeros(len(JOINT_NAMES))
+    for finger, k in (("FF", 1.0), ("MF", 1 / 3), ("RF", -1 / 3), ("LF", -1.0)):
+        bias[JOINT_NAMES.index(f"{finger}J3")] = 0.2 * k
+    biased = replace(rec, angles=rec.angles + bias, final_angles=rec.final_angles + bias)
+    families = ["cone", "cylinder", "sphere", "torus", "hyperboloid"]
+    text = render(SHIPPED, "rh", "known", {"sphere": 2, "cylinder": 2}, {"angles": "raw"})
+    raw = load(write(tmp_path / "raw.toml", text)).calibration
+    zeroed = load(write(tmp_path / "zeroed.toml", text.replace('"raw"', '"zeroed"'))).calibration
+    assert (raw.angles, zeroed.angles) == ("raw", "zeroed")
+    with use_calibration(raw):
+        assert list(cross_check_names([biased], families)) == ["cone"]
+    with use_calibration(zeroed):
+        assert list(cross_check_names([biased], families)) == ["cylinder"]
+    bad = write(tmp_path / "bad.toml", text.replace('"raw"', '"degrees"'))
+    with pytest.raises(UsageError, match="report.angles must be raw or zeroed"):
+        load(bad)
+
+
 # --- the file ---------------------------------------------------------------------------------
 
 

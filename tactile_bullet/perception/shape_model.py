@@ -243,6 +243,10 @@ class Calibration:
     penalty: float = 0.0
     source: str = "defaults"
     family: Mapping[str, np.ndarray] = field(default_factory=dict)
+    angles: str = "raw"
+    """What the coefficients were fitted on: ``raw`` angles, or ``zeroed`` on the open hand
+    (``calibrate --zeroed``): a reader that is not given robust-joints (the doubt cross-check)
+    zeroes a record first where they are zeroed."""
 
     def __post_init__(self) -> None:
         for name in ("intercept", "gain", "side", "sigma"):
@@ -266,6 +270,8 @@ class Calibration:
         object.__setattr__(self, "family", offsets)
         if not np.all(self.sigma > 0):
             raise UsageError("shape-fit calibration sigma must be positive")
+        if self.angles not in ("raw", "zeroed"):
+            raise UsageError(f"shape-fit calibration angles: raw or zeroed, not {self.angles!r}")
         if not (self.loss_scale > 0 and np.isfinite(self.penalty) and self.penalty >= 0):
             raise UsageError("shape-fit calibration loss_scale must be > 0 and penalty >= 0")
 

@@ -33,7 +33,7 @@ import json
 import math
 import os
 from collections.abc import Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
@@ -149,6 +149,10 @@ def load(path: str | os.PathLike) -> HandCalibration:
             raise UsageError(f"{where}: grasps_per_shape.{name} must be a positive integer")
     if len(counts) < 2:
         raise UsageError(f"{where}: grasps_per_shape must name at least two shapes")
+    angles = doc["report"].get("angles", "raw")
+    if angles not in ("raw", "zeroed"):
+        raise UsageError(f"{where}: report.angles must be raw or zeroed, got {angles!r}")
+    cal = replace(cal, angles=angles)
     return HandCalibration(cal, doc["hand"], doc["data"], dict(counts), dict(doc["report"]))
 
 

@@ -280,7 +280,7 @@ def test_welding_the_wrist_keeps_the_models_skip_of_palm_to_finger_contacts(tmp_
     assert ("rh_ffknuckle", "rh_palm") in pairs
 
 
-def test_independent_hand_tool_replaces_missing_meshes_and_drops_visuals(tmp_path):
+def test_independent_hand_tool_replaces_missing_meshes_and_drops_visuals(tmp_path, capsys):
     """tools/independent_hand.py makes a model whose meshes are absent loadable: a missing
     fingertip mesh becomes a capsule of the pad's size, visual geoms go, the rest is kept."""
     import mujoco
@@ -314,6 +314,11 @@ def test_independent_hand_tool_replaces_missing_meshes_and_drops_visuals(tmp_pat
     assert [model.geom_type[g] for g in geoms] == [mujoco.mjtGeom.mjGEOM_CAPSULE]
     assert np.allclose(model.geom_size[geoms[0]][:2], [0.0085, 0.008])
     assert model.nmesh == 0
+    for bad, why in (("<robot/>", "not an MJCF model"), ("<mujoco", "not a readable MJCF")):
+        (tmp_path / "bad.xml").write_text(bad)
+        with pytest.raises(SystemExit) as exit_:
+            tool.collision_copy(tmp_path / "bad.xml")
+        assert exit_.value.code == 2 and why in capsys.readouterr().err
 
 
 def test_hand_model_without_a_required_actuator_exits_2_naming_it(tmp_path, capsys):

@@ -28,6 +28,7 @@ import argparse
 import sys
 import xml.etree.ElementTree as ET
 from pathlib import Path
+from typing import NoReturn
 
 STAND_INS: dict[str, dict[str, str] | None] = {
     # Shadow's long-finger distal: 26 mm from the J1 axis to the tip, an 17 mm wide pad
@@ -39,6 +40,12 @@ STAND_INS: dict[str, dict[str, str] | None] = {
 """Missing mesh -> the primitive standing in for it (None: drop the geom)."""
 
 
+def _fail(message: str) -> NoReturn:
+    """One line on stderr and exit status 2, as the CLI answers bad input."""
+    print(f"independent_hand: {message}", file=sys.stderr)
+    raise SystemExit(2)
+
+
 def _is_visual(geom: ET.Element) -> bool:
     cls = geom.get("class", "")
     return "visual" in cls or (geom.get("contype") == "0" and geom.get("conaffinity") == "0")
@@ -47,8 +54,13 @@ def _is_visual(geom: ET.Element) -> bool:
 def collision_copy(source: Path) -> tuple[ET.ElementTree, list[str]]:
     """The model at ``source`` without its visual geoms, missing meshes replaced; and a line
     per change made."""
-    tree = ET.parse(source)
+    try:
+        tree = ET.parse(source)
+    except (OSError, ET.ParseError) as exc:
+        _fail(f"{source} is not a readable MJCF file: {exc}")
     root = tree.getroot()
+    if root.tag != "mujoco":
+        _fail(f"{source} is not an MJCF model (its root element is <{root.tag}>, not <mujoco>)")
     compiler = root.find("compiler")
     meshdir = source.parent / (compiler.get("meshdir", "") if compiler is not None else "")
     missing = set()
@@ -70,8 +82,8 @@ def collision_copy(source: Path) -> tuple[ET.ElementTree, list[str]]:
             if mesh is None or mesh not in missing:
                 continue
             if mesh not in STAND_INS:
-                sys.exit(f"independent_hand: collision mesh {mesh!r} is missing and has no "
-                         f"stand-in (known: {', '.join(STAND_INS)})")  # fmt: skip
+                _fail(f"collision mesh {mesh!r} is missing and has no stand-in "
+                      f"(known: {', '.join(STAND_INS)})")  # fmt: skip
             body = parent.get("name", "?")
             stand_in = STAND_INS[mesh]
             if stand_in is None:
@@ -96,7 +108,7 @@ def main() -> None:
     args = ap.parse_args()
     out = Path(args.out)
     if out.exists() and not args.force:
-        sys.exit(f"independent_hand: {out} exists (--force to replace it)")
+        _fail(f"{out} exists (--force to replace it)")
     tree, changes = collision_copy(Path(args.model))
     tree.write(out, encoding="unicode")
     for line in changes:

@@ -51,22 +51,17 @@ def cross_check_applies(classes: Sequence[str], classifier: str) -> bool:
 
 
 def cross_check_names(records: Sequence, classes: Sequence[str]) -> np.ndarray:
-    """The shape fit's answer among ``classes`` for each record ('' where it cannot read one).
-
-    Each record is read as the coefficients in force were fitted: zeroed on the open hand
-    where a hand calibration was made with ``calibrate --zeroed`` (raw angles there would put
-    the sensors' offsets into the fit as shape), raw otherwise."""
+    """The shape fit's answer among ``classes`` for each record ('' where it cannot read one),
+    each read as the coefficients in force were fitted (:func:`.robust.angles_for_shape_fit`)."""
     from ..errors import UsageError
     from ..perception.shape_fit import fit_shape
-    from ..perception.shape_model import active_calibration
-    from .robust import zeroed
+    from .robust import angles_for_shape_fit
 
     families = [str(c) for c in classes]
-    zero = active_calibration().angles == "zeroed"
     out = []
     for rec in records:
         try:
-            out.append(fit_shape((zeroed(rec) if zero else rec).fci_angles(), families).shape)
+            out.append(fit_shape(angles_for_shape_fit(rec), families).shape)
         except UsageError:
             out.append("")
     return np.array(out, dtype=object).astype(str)

@@ -84,6 +84,19 @@ def zeroed(
     return replace(record, angles=angles - zero, final_angles=final - zero)
 
 
+def angles_for_shape_fit(record: GraspRecord) -> np.ndarray:
+    """(3, 4) J3/J2/J1 angles of a whole record as the shape-fit coefficients in force were
+    fitted: zeroed on the open hand where a hand calibration came from ``calibrate --zeroed``
+    (raw angles there would put the sensors' offsets into the fit as shape), raw otherwise.
+    Every reader of a whole record (the doubt cross-check, the rotation estimate, ``grasp``'s
+    fit) goes through it; descriptor columns say their own (raw-joints or robust-joints)."""
+    from ..perception.shape_model import active_calibration
+
+    if active_calibration().angles == "zeroed":
+        record = zeroed(record)
+    return record.fci_angles()
+
+
 def settled(series: np.ndarray, tail: int = TAIL_SAMPLES, longest: int = PLATEAU_SAMPLES):
     """Each column's mean over the plateau that ends the series: the last ``tail`` samples,
     extended back while each earlier sample lies within 3 noise sigmas of their mean (sigma

@@ -464,11 +464,12 @@ def shape_fit_summary(record) -> dict | None:
     "offset_m", "residual", "scores"}), or None where its angles cannot be fitted or the grasp
     touched too little (``contact.nothing_to_identify``: the angles of fingers that closed on
     air would still fit some family best, and a shape name there would be a guess)."""
+    from ..learn.robust import angles_for_shape_fit
     from .contact import nothing_to_identify
 
     if nothing_to_identify(record) is not None:
         return None
     try:
-        return fit_shape(record.fci_angles()).summary()
+        return fit_shape(angles_for_shape_fit(record)).summary()
     except UsageError:
         return None

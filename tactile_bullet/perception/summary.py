@@ -27,12 +27,13 @@ def rotation_from_grasp(
     the calibrated families, so the family is chosen among them, from the absolute angles the
     shape fit reads (scale separates cylinder from hyperboloid where the signature cannot).
     ``tools/rotation_end_to_end.py`` measures it."""
+    from ..learn.robust import angles_for_shape_fit
     from .shape_fit import fit_shape
 
     cal = load_calibration() if calibration is None else calibration
     if cal is None or not cal.per_shape or nothing_to_identify(record) is not None:
         return None, None
-    fit = fit_shape(record.fci_angles(), families=sorted(cal.per_shape))
+    fit = fit_shape(angles_for_shape_fit(record), families=sorted(cal.per_shape))
     alpha = alpha_of(signature_of(record), cal.line)
     return cal.estimate(alpha, fit.shape), fit.shape
 

@@ -116,11 +116,10 @@ class FusionClassifier(ClassifierMixin, BaseEstimator):
         n = self.n_estimators
         if isinstance(n, bool) or not isinstance(n, int | np.integer) or n < 1:
             raise ValueError(f"n_estimators must be an integer >= 1, got {n!r}")
-        if not (isinstance(self.weight, str) and self.weight == "auto"):
-            if isinstance(self.weight, bool) or not isinstance(self.weight, int | float):
-                raise ValueError(f"weight must be 'auto' or a number >= 0, got {self.weight!r}")
-            if not (np.isfinite(self.weight) and self.weight >= 0):
-                raise ValueError(f"weight must be 'auto' or a number >= 0, got {self.weight!r}")
+        w = self.weight
+        number = not isinstance(w, bool) and isinstance(w, int | float)
+        if not (w == "auto" if isinstance(w, str) else number and np.isfinite(w) and w >= 0):
+            raise ValueError(f"weight must be 'auto' or a number >= 0, got {w!r}")
         if not (np.isfinite(self.sharpness) and self.sharpness >= 0):
             raise ValueError(f"sharpness must be a number >= 0, got {self.sharpness!r}")
         if not (0 <= self.tolerance < 1):
@@ -163,14 +162,15 @@ class FusionClassifier(ClassifierMixin, BaseEstimator):
             scores = self.shape_fit_.scores(X[:, -width:])
             self.reference_score_ = float(np.median(scores.min(axis=1)))
             if self.weight == "auto":
-                self.weight_ = self._choose_weight(series, y, scores)
+                self.weight_ = self._choose_weight(series, y, scores, int(counts.min()))
         self.trees_ = self._trees().fit(series, y)
         return self
 
-    def _choose_weight(self, series: np.ndarray, y: np.ndarray, scores: np.ndarray) -> float:
+    def _choose_weight(self, series: np.ndarray, y: np.ndarray, scores: np.ndarray,
+                       fewest: int) -> float:  # fmt: skip
+        """The weight (``fewest``: grasps of the rarest shape, >= 2, checked in fit)."""
         from sklearn.model_selection import StratifiedKFold
 
-        fewest = int(np.unique(y, return_counts=True)[1].min())  # >= 2, checked in fit
         split = StratifiedKFold(min(self.folds, fewest), shuffle=True, random_state=0)
         log_votes = np.empty((len(y), len(self.classes_)))
         for train, held in split.split(series, y):

@@ -124,6 +124,12 @@ class ControllerSettings:
     """The physics engine (``sim/engines/``, the ``register_engines`` hook): ``bullet`` or
     ``mujoco`` built in. Left out of saved records while ``bullet``, so older records and
     datasets stay byte-identical and resumable."""
+    tendon_spring: float = 0.0
+    """Return spring (N m/rad) on each long finger's distal joint J1, in an engine whose tendon
+    splits J0 = J1 + J2 by its physics (``Engine.tendon``: ``mujoco``): 0 leaves the split to
+    the tendon's own dynamics (the distal joint closes first), about 0.3 holds J1 back until the
+    middle phalanx meets the object (the thesis' J2-first hand), 1 keeps J1 nearly straight.
+    What a real hand's tendon varies in; engines that split J0 by ``coupling`` refuse it."""
     hand_model: str | None = None
     """Another MJCF model of the Shadow hand for the ``mujoco`` engine (``--hand-model``, an
     absolute path; docs/engines.md lists what it must have). None: the project's own."""
@@ -176,6 +182,9 @@ OFFSET_JOINTS: tuple[str, ...] = tuple(j for f in LONG_FINGERS for j in FCI_JOIN
 MAX_JOINT_OFFSET = math.radians(20.0)
 """Largest calibration offset (rad) a record may carry: beyond it a reading is not a joint's."""
 MAX_CONTACT_STIFFNESS = 1e7
+MAX_TENDON_SPRING = 5.0
+"""Stiffest distal return spring (N m/rad) a record may carry: at 5 the spring alone reaches
+the stop threshold 0.35 N m within 4 deg of J1, so J1 no longer moves at all."""
 
 
 def _check_variation(ctl: ControllerSettings) -> None:
@@ -209,6 +218,17 @@ def _check_variation(ctl: ControllerSettings) -> None:
             f"controller contact_stiffness must be from 0 (rigid) to {MAX_CONTACT_STIFFNESS:g} "
             f"N/m, got {k!r}"
         )
+    k = ctl.tendon_spring
+    if isinstance(k, bool) or not isinstance(k, int | float) or not 0 <= k <= MAX_TENDON_SPRING:
+        raise UsageError(
+            f"controller tendon_spring must be from 0 (none) to {MAX_TENDON_SPRING:g} N m/rad, "
+            f"got {k!r}"
+        )
+    if k > 0 and ctl.engine == "bullet":
+        raise UsageError(
+            "controller tendon_spring is for an engine whose tendon splits J0 by its physics "
+            "(mujoco); bullet splits it by coupling"
+        )
 
 
 PHYSICS_DEFAULTS: dict[str, float | bool | str | tuple | None] = {
@@ -220,6 +240,7 @@ PHYSICS_DEFAULTS: dict[str, float | bool | str | tuple | None] = {
     "contact_stiffness": 0.0,
     "engine": "bullet",
     "hand_model": None,
+    "tendon_spring": 0.0,
 }
 """Fields of ControllerSettings added after records were first written (physics knobs and
 the early grasp end): left out of the saved form while at these values, so older records,

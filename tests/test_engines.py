@@ -361,3 +361,24 @@ def test_generate_on_mujoco_and_no_resume_across_engines(tmp_path, capsys):
     assert verify(out)["engines"] == ["mujoco"]
     err = run_error(capsys, [*argv, "--resume"])  # bullet now: another dataset
     assert "holds a different dataset" in err
+
+
+def test_the_tendon_spring_holds_the_distal_joint_back():
+    """MuJoCo's tendon splits J0 = J1 + J2 by its physics, so the coupling rule that splits it
+    in Bullet does nothing there; a return spring on J1 is what varies the split: with it the
+    middle phalanx closes first (more J2, less J1 on every long finger), while J3, which
+    closes before the tendon moves, stays within a few degrees (the spring's torque reaches
+    it only through the stop rule's downstream efforts). A reused model forgets the spring."""
+    from tactile_bullet.sim.grasp import simulate_grasp
+
+    pose = Pose(offset=(-0.01, 0.0, 0.005))
+    args = ("sphere", {"radius": 0.045}, pose)
+    free = simulate_grasp(*args, ControllerSettings(engine="mujoco"))
+    sprung = simulate_grasp(*args, ControllerSettings(engine="mujoco", tendon_spring=0.3))
+    again = simulate_grasp(*args, ControllerSettings(engine="mujoco"))
+    assert again.equals(free)
+    assert sprung.controller.tendon_spring == 0.3
+    j3f, j2f, j1f = np.degrees(free.fci_angles())
+    j3s, j2s, j1s = np.degrees(sprung.fci_angles())
+    assert np.all(j2s > j2f + 5.0) and np.all(j1s < j1f - 10.0)
+    np.testing.assert_allclose(j3s, j3f, atol=4.0)

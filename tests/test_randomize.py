@@ -14,7 +14,11 @@ from synthetic import make_record, make_records
 
 from tactile_bullet import Pose, simulate_grasp
 from tactile_bullet.cli import main
-from tactile_bullet.datasets.randomize import RANDOMIZED_TABLE, Randomization
+from tactile_bullet.datasets.randomize import (
+    RANDOMIZED_TABLE,
+    TENDON_SPRING_RANGE,
+    Randomization,
+)
 from tactile_bullet.datasets.sweeps import Sweep, preset
 from tactile_bullet.errors import UsageError
 from tactile_bullet.experiments import protocols as P
@@ -279,8 +283,8 @@ def test_mujoco_randomized_twin_draws_grasp_on_mujoco():
     low friction) still make a grasp there, all four fingers on a centred cylinder."""
     from tactile_bullet.datasets.randomize import draw_for_task, randomized_table
 
-    table = Randomization.from_dict(randomized_table("mujoco"))
     base = ControllerSettings(engine="mujoco")
+    table = Randomization.from_dict(randomized_table("mujoco"), base=base)
     seed = next(s for s in range(200) if draw_for_task(table, base, s).control_every == 2
                 and draw_for_task(table, base, s).friction < 0.7)  # fmt: skip
     ctl = draw_for_task(table, base, seed)
@@ -294,10 +298,14 @@ def test_benchmark_sets_randomized_twins_and_coupling_shift():
     twin, train = sets[P.randomized_name("tiny-demo-train")], sets["tiny-demo-train"]
     assert twin.sweep().shapes == train.sweep().shapes and twin.seed == train.seed
     assert twin.randomize == Randomization.from_dict(RANDOMIZED_TABLE)
-    # MuJoCo has no contact-stiffness knob: its randomised twin draws every other key
+    # MuJoCo has no contact-stiffness knob, and its tendon, not the coupling rule, splits J0:
+    # its randomised twin draws the tendon's spring instead, and every other key the same
     mj = sets[P.randomized_name("tiny-mujoco-demo-train")].randomize
-    assert mj.contact_stiffness is None and mj.coupling == twin.randomize.coupling
-    assert replace(mj, contact_stiffness=twin.randomize.contact_stiffness) == twin.randomize
+    assert mj.contact_stiffness is None and mj.coupling is None
+    assert mj.tendon_spring == TENDON_SPRING_RANGE
+    same = replace(mj, contact_stiffness=twin.randomize.contact_stiffness,
+                   coupling=twin.randomize.coupling, tendon_spring=None)  # fmt: skip
+    assert same == twin.randomize
     assert sets["tiny-coupling-distal-first"].controller.coupling == "distal-first"
     names = [s.name for s in P.needed_sets(["coupling-shift"], "tiny", ("clean",))]
     assert names == ["tiny-demo-train", "tiny-coupling-equal-torque",
@@ -368,3 +376,47 @@ def test_train_noise_aware_and_randomized(tmp_path, capsys):
     assert main(["train", "--data", str(many), "--classifier", "knn", "--json",
                  "--training", "randomized", "--out", str(tmp_path / "r.npz")]) == 0  # fmt: skip
     assert json.loads(capsys.readouterr().out)["training"] == "randomized"
+
+
+# --- the tendon's spring: what the coupling rule is to an engine whose tendon splits J0 -----
+
+
+def test_tendon_spring_is_refused_where_coupling_splits_j0(tmp_path, capsys):
+    """Bullet splits J0 by ``coupling``; a spring it would silently ignore is refused when the
+    settings, the sweep, its [randomize] table or ``generate --engine`` ask for one."""
+    with pytest.raises(UsageError, match="tendon_spring is for an engine whose tendon"):
+        ControllerSettings(tendon_spring=0.3)
+    with pytest.raises(UsageError, match="tendon_spring must be from 0"):
+        ControllerSettings(engine="mujoco", tendon_spring=-0.1)
+    shapes = [{"name": "sphere"}]
+    with pytest.raises(UsageError, match="tendon_spring"):
+        Sweep.from_dict({"controller": {"tendon_spring": 0.3}, "shapes": shapes})
+    with pytest.raises(UsageError, match="tendon_spring cannot be used with engine 'bullet'"):
+        Sweep.from_dict({"randomize": {"tendon_spring": [0.1, 0.3]}, "shapes": shapes})
+    config = tmp_path / "sweep.toml"
+    config.write_text('engine = "mujoco"\nsamples = 2\nmode = "random"\n'
+                      '[[shapes]]\nname = "sphere"\n'
+                      '[randomize]\ntendon_spring = { min = 0.0, max = 0.5 }\n')  # fmt: skip
+    assert Sweep.from_toml(config).randomize.tendon_spring == {"min": 0.0, "max": 0.5}
+    out = tmp_path / "data"
+    err = run_error(capsys, ["generate", "--config", str(config), "--out", str(out),
+                             "--engine", "bullet"])  # fmt: skip
+    assert "tendon_spring cannot be used with engine 'bullet'" in err
+    assert not out.exists()
+
+
+def test_randomized_preset_fits_its_table_to_the_engine():
+    """``generate --preset randomized --engine mujoco`` draws MuJoCo's knobs: before, it drew
+    Bullet's contact stiffness, which the mujoco engine refuses, so three grasps in four
+    failed."""
+    bullet, mujoco = preset("randomized"), preset("randomized", "mujoco")
+    assert bullet.randomize == Randomization.from_dict(RANDOMIZED_TABLE)
+    assert mujoco.controller.engine == "mujoco"
+    assert mujoco.randomize.contact_stiffness is None and mujoco.randomize.coupling is None
+    assert mujoco.randomize.tendon_spring == TENDON_SPRING_RANGE
+    drawn = [mujoco.randomize.draw(mujoco.controller, np.random.default_rng(s)) for s in range(20)]
+    springs = [c.tendon_spring for c in drawn]
+    assert all(0.0 <= k <= 0.5 for k in springs) and len(set(springs)) == 20
+    saved = controller_dict(drawn[0])
+    assert saved["tendon_spring"] == drawn[0].tendon_spring
+    assert "tendon_spring" not in controller_dict(ControllerSettings(engine="mujoco"))

@@ -120,7 +120,8 @@ def run(args: argparse.Namespace) -> int:
     from ..datasets.sweeps import Sweep, preset
 
     settings = engine_settings(args)
-    sweep = preset(args.preset) if args.preset else Sweep.from_toml(args.config)
+    engine = settings.get("engine", "bullet")
+    sweep = preset(args.preset, engine) if args.preset else Sweep.from_toml(args.config)
     if settings:
         sweep = with_engine(sweep, **settings)
     if args.cluster and args.workers != 1:

@@ -36,7 +36,10 @@ def check_engine(controller, source: str) -> None:
     from ..plugins import get_engine
 
     try:
-        get_engine(controller.engine)
+        factory = get_engine(controller.engine)
+        if controller.tendon_spring > 0 and not getattr(factory, "tendon", False):
+            raise UsageError(f"tendon_spring is for an engine whose tendon splits J0 by its "
+                             f"physics; {controller.engine} has none")  # fmt: skip
         if controller.hand_model is not None:
             from ..sim.engines.mujoco_hand import load_hand_spec
 
@@ -53,4 +56,10 @@ def with_engine(sweep, engine: str, hand_model: str | None = None):
         raise UsageError(f"--engine {engine} contradicts the sweep's [randomize] engine draw "
                          f"({', '.join(drawn)}): leave out one of them")
     settings = {"engine": engine} | ({"hand_model": hand_model} if hand_model else {})
-    return replace(sweep, controller=replace(sweep.controller, **settings))
+    controller = replace(sweep.controller, **settings)
+    check_engine(controller, "--engine")
+    if sweep.randomize is not None:  # its knobs were checked against the sweep's own engine
+        from .randomize import Randomization
+
+        Randomization.from_dict(sweep.randomize.to_dict(), "[randomize]", controller)
+    return replace(sweep, controller=controller)

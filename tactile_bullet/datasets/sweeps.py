@@ -391,15 +391,16 @@ def _temporal() -> Sweep:
     return Sweep("temporal", tuple(shapes), mode="random", samples=40)
 
 
-def _randomized() -> Sweep:
+def _randomized(engine: str = "bullet") -> Sweep:
     """The thesis preset with the hand and physics drawn per grasp
-    (``randomize.RANDOMIZED_TABLE``): training data for a hand that is not our simulator's."""
-    from .randomize import RANDOMIZED_TABLE, Randomization
+    (``randomize.RANDOMIZED_TABLE``, as ``randomized_table`` fits it to ``engine``): training
+    data for a hand that is not our simulator's."""
+    from .randomize import Randomization, randomized_table
 
     thesis = _thesis()
-    return Sweep(
-        "randomized", thesis.shapes, randomize=Randomization.from_dict(RANDOMIZED_TABLE)
-    )
+    controller = ControllerSettings(engine=engine)
+    table = Randomization.from_dict(randomized_table(engine), base=controller)
+    return Sweep("randomized", thesis.shapes, controller=controller, randomize=table)
 
 
 PRESETS = {
@@ -412,11 +413,13 @@ PRESETS = {
 }
 
 
-def preset(name: str) -> Sweep:
-    try:
-        return PRESETS[name]()
-    except KeyError:
-        raise UsageError(f"unknown preset {name!r} (presets: {', '.join(PRESETS)})") from None
+def preset(name: str, engine: str = "bullet") -> Sweep:
+    """A built-in sweep; ``engine`` fits the ``randomized`` preset's table to the engine that
+    will run it (no contact stiffness without a soft-contact knob, the tendon's spring where a
+    tendon splits J0), which ``generate --engine`` then sets."""
+    if name not in PRESETS:
+        raise UsageError(f"unknown preset {name!r} (presets: {', '.join(PRESETS)})")
+    return _randomized(engine) if name == "randomized" else PRESETS[name]()
 
 
 # --- helpers --------------------------------------------------------------------------------

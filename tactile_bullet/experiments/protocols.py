@@ -217,7 +217,7 @@ def _sets(scale: str, engine: str) -> list[SetSpec]:
                            ROTATIONS_DEG),),
         ),
     ]  # fmt: skip
-    table = Randomization.from_dict(randomized_table(engine))
+    table = Randomization.from_dict(randomized_table(engine), base=base)
     for train in [s for s in out if s.name.endswith("-train")]:
         out.append(replace(train, name=randomized_name(train.name), randomize=table))
     for rule in COUPLING_SHIFTS:

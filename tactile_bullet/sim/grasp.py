@@ -110,6 +110,11 @@ def simulate_grasp(
 
     ctl = controller or ControllerSettings()
     factory = get_engine(ctl.engine)
+    if ctl.tendon_spring > 0 and not getattr(factory, "tendon", False):
+        raise UsageError(
+            f"controller tendon_spring is for an engine whose tendon splits J0 by its physics "
+            f"(mujoco); {ctl.engine} splits it by coupling"
+        )
     spec = shape if isinstance(shape, Shape) else resolve_shape(shape)
     values = spec.resolve(params)
     pose = pose or Pose()

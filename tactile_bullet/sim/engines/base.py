@@ -9,6 +9,9 @@ several physics steps of its own.
 A third-party engine subclasses :class:`Engine` and registers a factory with the
 ``register_engines`` hook: ``register(name, factory)`` where
 ``factory(shape, params, pose, controller, *, gui=False, visual=False)`` returns the engine.
+A factory whose engine has ``tendon = True`` says so too (``factory.tendon = True``, or the
+class itself as the factory): sweeps check ``ControllerSettings.tendon_spring`` against it
+before any grasp runs.
 """
 
 from __future__ import annotations

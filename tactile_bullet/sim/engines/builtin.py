@@ -3,6 +3,8 @@
 Factories import their engine's module only when a grasp asks for it, so listing plugins never
 imports PyBullet or MuJoCo. ``mujoco`` is an optional extra: its factory's ``missing()`` says
 how to install it, and ``plugins.get_engine`` turns that into a UsageError before any work.
+A factory's ``tendon`` repeats its engine's ``Engine.tendon``, so a sweep's tendon knobs are
+checked without building an engine.
 """
 
 from __future__ import annotations
@@ -35,6 +37,7 @@ def _mujoco_missing() -> str | None:
 
 
 mujoco.missing = _mujoco_missing  # type: ignore[attr-defined]
+mujoco.tendon = True  # type: ignore[attr-defined]  # read before any grasp (Engine.tendon)
 
 
 @hookimpl

@@ -88,6 +88,7 @@ class MujocoEngine(Engine):
         if proto.spare:  # a finished grasp's model and data: no copy, no allocation
             m, d = proto.spare.pop()
             m.actuator_forcerange[:] = proto.model.actuator_forcerange  # the grasp set them
+            m.jnt_stiffness[:] = proto.model.jnt_stiffness  # an earlier grasp's tendon spring
             mujoco.mj_resetData(m, d)
         else:  # the grasp changes force limits and the object's pose: a copy
             m = copy.copy(proto.model)
@@ -105,6 +106,9 @@ class MujocoEngine(Engine):
         m.body_pos[self._object_body] = position
         m.body_quat[self._object_body] = quat
         m.geom_friction[:, 0] = controller.friction
+        # The distal return spring (ControllerSettings.tendon_spring), about J1's zero, on top
+        # of any stiffness the model gives J1 itself.
+        m.jnt_stiffness[self._distal_joints] += controller.tendon_spring
         n = len(JOINT_NAMES)
         self._targets = np.zeros(n + 1)  # column n stays 0: the pair of unpaired actuators
         self._forces = np.zeros(n)
@@ -150,6 +154,7 @@ class MujocoEngine(Engine):
             self._act[j2] = self._act[j1] = a
             self._pair[j2] = j1  # the tendon's target: J2's + J1's
             driving.append(j2)
+        self._distal_joints = np.array([joints[f"{f.upper()}J1"] for f in LONG_FINGERS])
         self._drive_cols = np.array(driving)
         self._drive_acts = self._act[self._drive_cols]
         body_of = m.geom_bodyid

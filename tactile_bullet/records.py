@@ -130,6 +130,12 @@ class ControllerSettings:
     the tendon's own dynamics (the distal joint closes first), about 0.3 holds J1 back until the
     middle phalanx meets the object (the thesis' J2-first hand), 1 keeps J1 nearly straight.
     What a real hand's tendon varies in; engines that split J0 by ``coupling`` refuse it."""
+    servo_stiffness: float = 0.0
+    """Stiffness (N m/rad) of the long fingers' position servos (J4, J3 and the J0 tendon), in
+    an engine whose servos are springs (``mujoco``); 0 keeps the hand model's own (ours: 20).
+    A soft servo yields after its stage: at 1, the MuJoCo Menagerie's hand's value, J3 gives
+    back 8 deg on a 45 mm sphere when the tendon squeezes. Bullet's motors are constraints
+    with a force limit, not springs, and refuse it."""
     hand_model: str | None = None
     """Another MJCF model of the Shadow hand for the ``mujoco`` engine (``--hand-model``, an
     absolute path; docs/engines.md lists what it must have). None: the project's own."""
@@ -182,6 +188,8 @@ OFFSET_JOINTS: tuple[str, ...] = tuple(j for f in LONG_FINGERS for j in FCI_JOIN
 MAX_JOINT_OFFSET = math.radians(20.0)
 """Largest calibration offset (rad) a record may carry: beyond it a reading is not a joint's."""
 MAX_CONTACT_STIFFNESS = 1e7
+MAX_SERVO_STIFFNESS = 1000.0
+"""Stiffest finger servo (N m/rad) a record may carry (our MJCF's is 20)."""
 MAX_TENDON_SPRING = 5.0
 """Stiffest distal return spring (N m/rad) a record may carry: at 5 the spring alone reaches
 the stop threshold 0.35 N m within 4 deg of J1, so J1 no longer moves at all."""
@@ -224,11 +232,18 @@ def _check_variation(ctl: ControllerSettings) -> None:
             f"controller tendon_spring must be from 0 (none) to {MAX_TENDON_SPRING:g} N m/rad, "
             f"got {k!r}"
         )
-    if k > 0 and ctl.engine == "bullet":
+    k = ctl.servo_stiffness
+    if isinstance(k, bool) or not isinstance(k, int | float) or not 0 <= k <= MAX_SERVO_STIFFNESS:
         raise UsageError(
-            "controller tendon_spring is for an engine whose tendon splits J0 by its physics "
-            "(mujoco); bullet splits it by coupling"
+            f"controller servo_stiffness must be from 0 (the model's own) to "
+            f"{MAX_SERVO_STIFFNESS:g} N m/rad, got {k!r}"
         )
+    for name in ("tendon_spring", "servo_stiffness"):
+        if getattr(ctl, name) > 0 and ctl.engine == "bullet":
+            raise UsageError(
+                f"controller {name} is a mujoco knob: bullet splits J0 by coupling and its "
+                "motors are constraints, not springs"
+            )
 
 
 PHYSICS_DEFAULTS: dict[str, float | bool | str | tuple | None] = {
@@ -241,6 +256,7 @@ PHYSICS_DEFAULTS: dict[str, float | bool | str | tuple | None] = {
     "engine": "bullet",
     "hand_model": None,
     "tendon_spring": 0.0,
+    "servo_stiffness": 0.0,
 }
 """Fields of ControllerSettings added after records were first written (physics knobs and
 the early grasp end): left out of the saved form while at these values, so older records,

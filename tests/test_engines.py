@@ -382,3 +382,20 @@ def test_the_tendon_spring_holds_the_distal_joint_back():
     j3s, j2s, j1s = np.degrees(sprung.fci_angles())
     assert np.all(j2s > j2f + 5.0) and np.all(j1s < j1f - 10.0)
     np.testing.assert_allclose(j3s, j3f, atol=4.0)
+
+
+def test_a_soft_finger_servo_gives_back_j3_when_the_tendon_squeezes():
+    """``servo_stiffness`` sets the long fingers' position servos: at our model's own 20 N m/rad
+    the grasp is the model's; at 1 (the MuJoCo Menagerie hand's) J3 stops where it meets the
+    object but yields afterwards, when the tendon presses the distal phalanges on, so it ends
+    several degrees more open on every long finger. A reused model forgets it."""
+    from tactile_bullet.sim.grasp import simulate_grasp
+
+    args = ("sphere", {"radius": 0.045}, Pose(offset=(-0.01, 0.0, 0.005)))
+    own = simulate_grasp(*args, ControllerSettings(engine="mujoco"))
+    stiff = simulate_grasp(*args, ControllerSettings(engine="mujoco", servo_stiffness=20.0))
+    soft = simulate_grasp(*args, ControllerSettings(engine="mujoco", servo_stiffness=1.0))
+    again = simulate_grasp(*args, ControllerSettings(engine="mujoco"))
+    np.testing.assert_array_equal(stiff.final_angles, own.final_angles)
+    assert again.equals(own)
+    assert np.all(np.degrees(own.fci_angles()[0] - soft.fci_angles()[0]) > 5.0)

@@ -16,6 +16,7 @@ from tactile_bullet import Pose, simulate_grasp
 from tactile_bullet.cli import main
 from tactile_bullet.datasets.randomize import (
     RANDOMIZED_TABLE,
+    SERVO_STIFFNESS_CHOICES,
     TENDON_SPRING_RANGE,
     Randomization,
 )
@@ -285,8 +286,10 @@ def test_mujoco_randomized_twin_draws_grasp_on_mujoco():
 
     base = ControllerSettings(engine="mujoco")
     table = Randomization.from_dict(randomized_table("mujoco"), base=base)
+    # (a stiff servo: at 1-2 N m/rad a finger may spring off a cylinder this slippery)
     seed = next(s for s in range(200) if draw_for_task(table, base, s).control_every == 2
-                and draw_for_task(table, base, s).friction < 0.7)  # fmt: skip
+                and draw_for_task(table, base, s).friction < 0.7
+                and draw_for_task(table, base, s).servo_stiffness >= 5)  # fmt: skip
     ctl = draw_for_task(table, base, seed)
     record = simulate_grasp(*CYLINDER, Pose(), ctl)
     assert record.controller == ctl and record.controller.engine == "mujoco"
@@ -303,8 +306,10 @@ def test_benchmark_sets_randomized_twins_and_coupling_shift():
     mj = sets[P.randomized_name("tiny-mujoco-demo-train")].randomize
     assert mj.contact_stiffness is None and mj.coupling is None
     assert mj.tendon_spring == TENDON_SPRING_RANGE
+    assert mj.servo_stiffness == SERVO_STIFFNESS_CHOICES
     same = replace(mj, contact_stiffness=twin.randomize.contact_stiffness,
-                   coupling=twin.randomize.coupling, tendon_spring=None)  # fmt: skip
+                   coupling=twin.randomize.coupling, tendon_spring=None,
+                   servo_stiffness=None)  # fmt: skip
     assert same == twin.randomize
     assert sets["tiny-coupling-distal-first"].controller.coupling == "distal-first"
     names = [s.name for s in P.needed_sets(["coupling-shift"], "tiny", ("clean",))]
@@ -382,12 +387,16 @@ def test_train_noise_aware_and_randomized(tmp_path, capsys):
 
 
 def test_tendon_spring_is_refused_where_coupling_splits_j0(tmp_path, capsys):
-    """Bullet splits J0 by ``coupling``; a spring it would silently ignore is refused when the
-    settings, the sweep, its [randomize] table or ``generate --engine`` ask for one."""
-    with pytest.raises(UsageError, match="tendon_spring is for an engine whose tendon"):
-        ControllerSettings(tendon_spring=0.3)
-    with pytest.raises(UsageError, match="tendon_spring must be from 0"):
-        ControllerSettings(engine="mujoco", tendon_spring=-0.1)
+    """Bullet splits J0 by ``coupling`` and its motors are constraints; a tendon spring or a
+    servo stiffness it would silently ignore is refused when the settings, the sweep, its
+    [randomize] table or ``generate --engine`` ask for one."""
+    for name in ("tendon_spring", "servo_stiffness"):
+        with pytest.raises(UsageError, match=f"{name} is a mujoco knob"):
+            ControllerSettings(**{name: 0.3})
+        with pytest.raises(UsageError, match=f"{name} must be from 0"):
+            ControllerSettings(engine="mujoco", **{name: -0.1})
+        with pytest.raises(UsageError, match=f"{name} cannot be used with engine 'bullet'"):
+            Randomization.from_dict({name: [1.0]})
     shapes = [{"name": "sphere"}]
     with pytest.raises(UsageError, match="tendon_spring"):
         Sweep.from_dict({"controller": {"tendon_spring": 0.3}, "shapes": shapes})
@@ -401,7 +410,7 @@ def test_tendon_spring_is_refused_where_coupling_splits_j0(tmp_path, capsys):
     out = tmp_path / "data"
     err = run_error(capsys, ["generate", "--config", str(config), "--out", str(out),
                              "--engine", "bullet"])  # fmt: skip
-    assert "tendon_spring cannot be used with engine 'bullet'" in err
+    assert "tendon_spring cannot be used with engine 'bullet', which lacks a tendon" in err
     assert not out.exists()
 
 
@@ -414,9 +423,13 @@ def test_randomized_preset_fits_its_table_to_the_engine():
     assert mujoco.controller.engine == "mujoco"
     assert mujoco.randomize.contact_stiffness is None and mujoco.randomize.coupling is None
     assert mujoco.randomize.tendon_spring == TENDON_SPRING_RANGE
+    assert mujoco.randomize.servo_stiffness == SERVO_STIFFNESS_CHOICES
     drawn = [mujoco.randomize.draw(mujoco.controller, np.random.default_rng(s)) for s in range(20)]
     springs = [c.tendon_spring for c in drawn]
     assert all(0.0 <= k <= 0.5 for k in springs) and len(set(springs)) == 20
+    assert {c.servo_stiffness for c in drawn} <= set(SERVO_STIFFNESS_CHOICES)
     saved = controller_dict(drawn[0])
     assert saved["tendon_spring"] == drawn[0].tendon_spring
-    assert "tendon_spring" not in controller_dict(ControllerSettings(engine="mujoco"))
+    assert saved["servo_stiffness"] == drawn[0].servo_stiffness
+    plain = controller_dict(ControllerSettings(engine="mujoco"))
+    assert "tendon_spring" not in plain and "servo_stiffness" not in plain

@@ -16,6 +16,7 @@ varies in. Each key is a list (one value drawn uniformly from it) or a ``{min, m
     contact_stiffness = [0, 3000, 10000, 30000]  # N/m; 0 is the engine's rigid contact
     control_rate = [240, 120]                    # Hz of Algorithm 1's ticks
     tendon_spring = { min = 0.0, max = 0.5 }     # N m/rad on J1, engines with a real tendon
+    servo_stiffness = [1, 2, 5, 10, 20]          # N m/rad, finger servos that are springs
 
 Every drawn value lands in the grasp's ``ControllerSettings``, so each record says which hand
 made it (fields at their defaults are left out of the saved form: records of sweeps without
@@ -27,9 +28,10 @@ timestep) and ``closing_speed`` sets ``delta`` for that rate: the two are indepe
 ``engine = ["bullet", "mujoco"]`` draws the physics engine too (only installed engines; a
 record's ``controller.engine`` says which made it). It is drawn last, so a table that adds it
 keeps every other draw of each grasp as it was. ``contact_stiffness`` cannot be drawn with an
-engine that has no such knob (:data:`SOFT_CONTACT_ENGINES`), nor ``tendon_spring`` with one
-that splits J0 by ``coupling`` instead of a tendon (``Engine.tendon``); there ``coupling`` is
-the knob, and in a tendon engine ``tendon_spring`` is.
+engine that has no such knob (:data:`SOFT_CONTACT_ENGINES`), nor ``tendon_spring`` or
+``servo_stiffness`` with one that does not read them (``sim/engines/base.ENGINE_KNOBS``): an
+engine that splits J0 by ``coupling`` has no tendon to put a spring on, and one whose motors
+are constraints has no servo stiffness.
 """
 
 from __future__ import annotations
@@ -50,7 +52,7 @@ Choice = tuple[float, ...] | dict[str, float]
 """A list of values, or {"min", "max"}."""
 
 NUMERIC_KEYS = ("friction", "thres_t", "closing_speed", "phalanx_scale", "contact_stiffness",
-                "control_rate", "tendon_spring")  # fmt: skip
+                "control_rate", "tendon_spring", "servo_stiffness")  # fmt: skip
 KEYS = (*NUMERIC_KEYS, "joint_offset_deg", "coupling", "engine")
 DRAW_SALT = 0x52414E44
 """Mixed into each grasp's seed so the hand's draw is independent of anything else seeded by
@@ -68,6 +70,7 @@ class Randomization:
     contact_stiffness: Choice | None = None
     control_rate: Choice | None = None
     tendon_spring: Choice | None = None
+    servo_stiffness: Choice | None = None
     joint_offset_deg: float | None = None
     coupling: tuple[str, ...] | None = None
     engine: tuple[str, ...] | None = None
@@ -119,14 +122,15 @@ class Randomization:
             if base is not None and base.hand_model is not None and out["engine"] != ("mujoco",):
                 raise UsageError(f"{where} engine: a [controller] hand_model is the mujoco "
                                  "engine's only, so no other engine can be drawn with it")
-        if "tendon_spring" in out:
-            engines = out.get("engine") or ((base or ControllerSettings()).engine,)
-            split = [e for e in engines if not _has_tendon(e)]
-            if split:
-                raise UsageError(
-                    f"{where} tendon_spring cannot be used with engine {split[0]!r}, which "
-                    "splits J0 by coupling, not by a tendon (draw coupling there)"
-                )
+        from ..sim.engines.base import ENGINE_KNOBS
+
+        for name, (attr, needs) in ENGINE_KNOBS.items():
+            if name in out:
+                engines = out.get("engine") or ((base or ControllerSettings()).engine,)
+                lacking = [e for e in engines if not _reads(e, attr)]
+                if lacking:
+                    raise UsageError(f"{where} {name} cannot be used with engine "
+                                     f"{lacking[0]!r}, which lacks {needs}")  # fmt: skip
         result = cls(**out)
         result.draw(base or ControllerSettings(), np.random.default_rng(0), check=True)
         return result
@@ -167,7 +171,8 @@ class Randomization:
 
     def _apply(self, base, values, offsets, coupling, engine=None, checking: bool = False):
         changes: dict[str, Any] = {}
-        for key in ("friction", "thres_t", "phalanx_scale", "contact_stiffness", "tendon_spring"):
+        for key in ("friction", "thres_t", "phalanx_scale", "contact_stiffness", "tendon_spring",
+                    "servo_stiffness"):  # fmt: skip
             if values[key] is not None:
                 changes[key] = round(float(values[key]), 6)
         every = base.control_every
@@ -237,25 +242,36 @@ MJCF closes J1 first at 0 (J2 0-11 deg, J1 80-91 deg), as Bullet's J2-first rule
 0.3 (J2 19-33 deg, J1 31-48 deg; Bullet 14-27 and 31-42), and J2 further first at 0.5."""
 
 
+SERVO_STIFFNESS_CHOICES: tuple[float, ...] = (1.0, 2.0, 5.0, 10.0, 20.0)
+"""The finger servos' stiffness (N m/rad) drawn where the engine's servos are springs
+(MuJoCo's): from the MuJoCo Menagerie's Shadow hand (1) to our MJCF (20), log-spaced. Added
+after measuring that hand (docs/independent_hand.md): its J3 closes 8 deg less than ours on a
+sphere only because its servo (kp 1) yields when the tendon squeezes; at kp 20 its J3 equals
+ours to the degree."""
+
+
 def randomized_table(engine: str = "bullet") -> dict[str, Any]:
     """:data:`RANDOMIZED_TABLE` for grasps made with ``engine``: without the contact stiffness
     draw where the engine has no such knob (its own contact model stays); where a tendon
     splits J0 (``Engine.tendon``), the tendon's distal spring drawn instead of the coupling
-    rule, which such an engine does not read; every other draw as it is."""
+    rule, which such an engine does not read; where its servos are springs, their stiffness
+    drawn too; every other draw as it is."""
     table = dict(RANDOMIZED_TABLE)
     if engine not in SOFT_CONTACT_ENGINES:
         del table["contact_stiffness"]
-    if _has_tendon(engine):
+    if _reads(engine, "tendon"):
         del table["coupling"]
         table["tendon_spring"] = dict(TENDON_SPRING_RANGE)
+    if _reads(engine, "servo_gains"):
+        table["servo_stiffness"] = list(SERVO_STIFFNESS_CHOICES)
     return table
 
 
-def _has_tendon(engine: str) -> bool:
-    """Whether ``engine`` couples J1 and J2 by a tendon of its own (``Engine.tendon``)."""
+def _reads(engine: str, attr: str) -> bool:
+    """Whether ``engine``'s factory says it reads a knob (``sim/engines/base.ENGINE_KNOBS``)."""
     from ..plugins import get_engine
 
-    return bool(getattr(get_engine(engine), "tendon", False))
+    return bool(getattr(get_engine(engine), attr, False))
 
 
 def _engines(value: Any, where: str) -> tuple[str, ...]:

@@ -37,9 +37,10 @@ def check_engine(controller, source: str) -> None:
 
     try:
         factory = get_engine(controller.engine)
-        if controller.tendon_spring > 0 and not getattr(factory, "tendon", False):
-            raise UsageError(f"tendon_spring is for an engine whose tendon splits J0 by its "
-                             f"physics; {controller.engine} has none")  # fmt: skip
+        from ..sim.engines.base import unread_knob
+
+        if why := unread_knob(controller, factory):
+            raise UsageError(why)
         if controller.hand_model is not None:
             from ..sim.engines.mujoco_hand import load_hand_spec
 

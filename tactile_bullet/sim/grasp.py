@@ -44,7 +44,7 @@ from ..hand import (
 from ..objects.shapes import Shape
 from ..records import ControllerSettings, GraspRecord, Pose
 from .coupling import Tendon, advance
-from .engines.base import Engine
+from .engines.base import Engine, unread_knob
 
 J3, J0 = 0, 1
 DONE = 2
@@ -110,11 +110,8 @@ def simulate_grasp(
 
     ctl = controller or ControllerSettings()
     factory = get_engine(ctl.engine)
-    if ctl.tendon_spring > 0 and not getattr(factory, "tendon", False):
-        raise UsageError(
-            f"controller tendon_spring is for an engine whose tendon splits J0 by its physics "
-            f"(mujoco); {ctl.engine} splits it by coupling"
-        )
+    if why := unread_knob(ctl, factory):
+        raise UsageError(f"controller {why}")
     spec = shape if isinstance(shape, Shape) else resolve_shape(shape)
     values = spec.resolve(params)
     pose = pose or Pose()

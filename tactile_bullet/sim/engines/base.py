@@ -10,8 +10,9 @@ A third-party engine subclasses :class:`Engine` and registers a factory with the
 ``register_engines`` hook: ``register(name, factory)`` where
 ``factory(shape, params, pose, controller, *, gui=False, visual=False)`` returns the engine.
 A factory whose engine has ``tendon = True`` says so too (``factory.tendon = True``, or the
-class itself as the factory): sweeps check ``ControllerSettings.tendon_spring`` against it
-before any grasp runs.
+class itself as the factory), and ``factory.servo_gains = True`` where its finger servos'
+stiffness can be set: sweeps check the knobs of :data:`ENGINE_KNOBS` against them before any
+grasp runs.
 """
 
 from __future__ import annotations
@@ -25,6 +26,23 @@ import numpy as np
 Contact = tuple[str, np.ndarray, np.ndarray, float]
 """(hand link name, position on the object, the object's outward normal, normal force), in the
 palm frame (m, unit vector, N)."""
+
+
+ENGINE_KNOBS: dict[str, tuple[str, str]] = {
+    "tendon_spring": ("tendon", "a tendon splitting J0 by its physics"),
+    "servo_stiffness": ("servo_gains", "finger servos of settable stiffness"),
+}
+"""``ControllerSettings`` fields only some engines read: field -> (the attribute of the engine's
+factory that says it reads it, what such an engine has)."""
+
+
+def unread_knob(controller, factory) -> str | None:
+    """Why ``factory``'s engine cannot run ``controller`` (a knob of :data:`ENGINE_KNOBS` set
+    that it does not read), in one line; None when it reads every knob set."""
+    for name, (attr, needs) in ENGINE_KNOBS.items():
+        if getattr(controller, name) > 0 and not getattr(factory, attr, False):
+            return f"{name} needs an engine with {needs}, which {controller.engine} lacks"
+    return None
 
 
 class Engine(ABC):

@@ -38,6 +38,7 @@ def _mujoco_missing() -> str | None:
 
 mujoco.missing = _mujoco_missing  # type: ignore[attr-defined]
 mujoco.tendon = True  # type: ignore[attr-defined]  # read before any grasp (Engine.tendon)
+mujoco.servo_gains = True  # type: ignore[attr-defined]  # ControllerSettings.servo_stiffness
 
 
 @hookimpl

@@ -89,6 +89,8 @@ class MujocoEngine(Engine):
             m, d = proto.spare.pop()
             m.actuator_forcerange[:] = proto.model.actuator_forcerange  # the grasp set them
             m.jnt_stiffness[:] = proto.model.jnt_stiffness  # an earlier grasp's tendon spring
+            m.actuator_gainprm[:] = proto.model.actuator_gainprm  # and its servo stiffness
+            m.actuator_biasprm[:] = proto.model.actuator_biasprm
             mujoco.mj_resetData(m, d)
         else:  # the grasp changes force limits and the object's pose: a copy
             m = copy.copy(proto.model)
@@ -109,6 +111,9 @@ class MujocoEngine(Engine):
         # The distal return spring (ControllerSettings.tendon_spring), about J1's zero, on top
         # of any stiffness the model gives J1 itself.
         m.jnt_stiffness[self._distal_joints] += controller.tendon_spring
+        if controller.servo_stiffness > 0:  # a position servo: force = kp (target - q) - kv q'
+            m.actuator_gainprm[self._servo_acts, 0] = controller.servo_stiffness
+            m.actuator_biasprm[self._servo_acts, 1] = -controller.servo_stiffness
         n = len(JOINT_NAMES)
         self._targets = np.zeros(n + 1)  # column n stays 0: the pair of unpaired actuators
         self._forces = np.zeros(n)
@@ -155,6 +160,8 @@ class MujocoEngine(Engine):
             self._pair[j2] = j1  # the tendon's target: J2's + J1's
             driving.append(j2)
         self._distal_joints = np.array([joints[f"{f.upper()}J1"] for f in LONG_FINGERS])
+        self._servo_acts = np.array([actuators[f"A_{f.upper()}{j}"] for f in LONG_FINGERS
+                                     for j in ("J4", "J3", "J0")])  # fmt: skip
         self._drive_cols = np.array(driving)
         self._drive_acts = self._act[self._drive_cols]
         body_of = m.geom_bodyid

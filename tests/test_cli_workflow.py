@@ -274,3 +274,43 @@ def test_demo_never_writes_into_a_folder_of_someone_elses_files(capsys, tmp_path
     err = run_error(capsys, ["demo", "--quick", "--out", str(tmp_path / "out")])
     assert "choose another --out" in err
     assert (mine / "notes.txt").read_text() == "mine"
+
+
+def test_train_known_grasps_teach_the_model_another_hand(folders, capsys, tmp_path):
+    """``train --known``: a few grasps of the user's own hand, shapes known, join the training
+    grasps. On a hand whose joints read differently (J3 20 deg further, J1 20 deg less), raw
+    joint angles + svm trained on the simulated set alone misread half its grasps; with two
+    known grasps of each shape they read the rest of that hand's grasps far better."""
+    from tactile_bullet.records import OFFSET_JOINTS
+    from tactile_bullet.sim.grasp import offset_readings
+
+    _, train, _ = folders
+    shift = [{"3": 0.35, "2": 0.0, "1": -0.35}[j[-1]] for j in OFFSET_JOINTS]
+    other = [offset_readings(r, shift) for r in synthetic_set(6, seed=13)]
+    first = {r.shape: [] for r in other}
+    for r in other:
+        first[r.shape].append(r)
+    known = write_records(tmp_path / "known", [r for v in first.values() for r in v[:2]])
+    test = write_records(tmp_path / "test", [r for v in first.values() for r in v[2:]])
+    acc = {}
+    for name, extra in (("alone", []), ("known", ["--known", str(known)])):
+        model = tmp_path / f"{name}.npz"
+        doc = run_json(capsys, ["train", "--data", str(train), *extra, "--descriptor",
+                                "raw-joints", "--out", str(model)])  # fmt: skip
+        assert doc["train_records"] == 24 and doc.get("known_records") == (6 if extra else None)
+        acc[name] = run_json(capsys, ["evaluate", "--model", str(model), "--data", str(test)])[
+            "accuracy"
+        ]
+    assert acc["alone"] <= 0.6 and acc["known"] >= acc["alone"] + 0.25, acc
+
+
+def test_train_known_with_a_shape_the_data_lacks_exits_2_and_writes_nothing(
+    folders, capsys, tmp_path
+):
+    _, train, _ = folders
+    known = write_records(tmp_path / "known", synthetic_set(1, seed=5, shapes=("ovoid",)))
+    out = tmp_path / "m.npz"
+    err = run_error(capsys, ["train", "--data", str(train), "--known", str(known),
+                             "--out", str(out)])  # fmt: skip
+    assert "--known holds 'ovoid', a shape the training data lacks" in err
+    assert not out.exists()

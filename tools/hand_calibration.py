@@ -11,10 +11,12 @@ poses fitted; ``--known-sizes``: the records' true sizes given, poses fitted), e
 
 ``--learned`` adds the other way to fit a method to a hand: a registered descriptor and
 classifier trained on the same chosen grasps alone (what ``tactile-bullet train --data KNOWN``
-does with them), e.g. ``signature:knn:n_neighbors=1`` (one nearest known grasp).
+does with them), e.g. ``signature:knn:n_neighbors=1`` (one nearest known grasp); with
+``--with-data SIM`` on the simulated grasps of SIM plus the chosen ones (what ``tactile-bullet
+train --data SIM --known KNOWN`` does), and with no chosen grasp at all for reference.
 
 Usage: python tools/hand_calibration.py --data DIR [--draws 2] [--counts 1,2,5,10] [--known-sizes]
-       [--learned signature:knn:n_neighbors=1,coupled-joints:knn:n_neighbors=1]
+       [--learned signature:knn:n_neighbors=1,coupled-joints:knn:n_neighbors=1] [--with-data SIM]
 """
 
 from __future__ import annotations
@@ -40,15 +42,17 @@ def accuracy(records, families, cal) -> float:
     return float(np.mean([n == r.shape for n, r in zip(names, records, strict=True)]))
 
 
-def learned_accuracy(method: str, chosen, test) -> float:
-    """``descriptor:classifier[:key=value...]`` trained on ``chosen`` alone, scored on ``test``."""
+def learned_accuracy(method: str, chosen, test, simulated=()) -> float:
+    """``descriptor:classifier[:key=value...]`` trained on ``simulated`` plus ``chosen`` (the
+    known grasps, none for a reference), scored on ``test``."""
     from tactile_bullet.plugins import get_classifier, get_descriptor
 
     descriptor, classifier, *params = method.split(":")
     kwargs = {k: int(v) if v.isdigit() else v for k, v in (p.split("=", 1) for p in params)}
     d = get_descriptor(descriptor)
     model = get_classifier(classifier, **kwargs)
-    model.fit(np.asarray(d.transform(chosen), float), [r.shape for r in chosen])
+    fit_on = [*simulated, *chosen]
+    model.fit(np.asarray(d.transform(fit_on), float), [r.shape for r in fit_on])
     names = model.predict(np.asarray(d.transform(test), float))
     return float(np.mean([n == r.shape for n, r in zip(names, test, strict=True)]))
 
@@ -60,7 +64,12 @@ def main() -> None:
     ap.add_argument("--counts", default="1,2,5,10")
     ap.add_argument("--known-sizes", action="store_true")
     ap.add_argument("--learned", default="", help="descriptor:classifier[:k=v],... to train")
+    ap.add_argument("--with-data", help="simulated grasps the --learned methods train on too")
+    ap.add_argument("--skip-shape-fit", action="store_true", help="score --learned only")
     args = ap.parse_args()
+    simulated = []
+    if args.with_data:
+        simulated = [r for r in records_from(args.with_data) if "no_contact" not in r.flags]
     records = [r for r in records_from(args.data)
                if "no_contact" not in r.flags and r.shape in fitted_shapes()]  # fmt: skip
     families = sorted({r.shape for r in records})
@@ -70,31 +79,43 @@ def main() -> None:
     smallest = min(map(len, pool.values()))
     print(f"{args.data}: {len(records)} grasps of {', '.join(families)}; "
           f"pool {sum(map(len, pool.values()))}, test {len(test)}")  # fmt: skip
-    print(f"shipped Bullet coefficients: {100 * accuracy(test, families, load_calibration()):.1f}%")
-    print(f"no calibration (geometry alone): {100 * accuracy(test, families, Calibration()):.1f}%")
+    methods = [m for m in args.learned.split(",") if m]
+    if not args.skip_shape_fit:
+        shipped = accuracy(test, families, load_calibration())
+        print(f"shipped Bullet coefficients: {100 * shipped:.1f}%")
+        geometry = accuracy(test, families, Calibration())
+        print(f"no calibration (geometry alone): {100 * geometry:.1f}%")
+    if simulated:
+        simulated = [r for r in simulated if r.shape in families]
+        for m in methods:
+            alone = learned_accuracy(m, [], test, simulated)
+            print(f"  {m} on {args.with_data} alone: {100 * alone:.1f}%", flush=True)
     rng = np.random.default_rng(0)
     for n in (int(c) for c in args.counts.split(",")):
         if n > smallest:
             print(f"{n} per shape: pool too small ({smallest})")
             continue
         scores, kept, took = [], 0, []
-        methods = [m for m in args.learned.split(",") if m]
         learned: dict[str, list[float]] = {m: [] for m in methods}
         for _ in range(args.draws if n < smallest else 1):
             chosen = [v[i] for v in pool.values() for i in rng.choice(len(v), n, replace=False)]
-            sizes = [dict(r.params) for r in chosen] if args.known_sizes else None
-            t0 = time.perf_counter()
-            hand = fit_hand([r.fci_angles() for r in chosen], [r.shape for r in chosen], sizes)
-            took.append(time.perf_counter() - t0)
-            kept += hand.kept_start
-            scores.append(accuracy(test, families, hand.calibration))
+            if not args.skip_shape_fit:
+                sizes = [dict(r.params) for r in chosen] if args.known_sizes else None
+                t0 = time.perf_counter()
+                hand = fit_hand([r.fci_angles() for r in chosen], [r.shape for r in chosen], sizes)
+                took.append(time.perf_counter() - t0)
+                kept += hand.kept_start
+                scores.append(accuracy(test, families, hand.calibration))
             for m in methods:
-                learned[m].append(learned_accuracy(m, chosen, test))
-        print(f"{n} per shape: {100 * np.mean(scores):.1f}% "
-              f"(draws: {', '.join(f'{100 * s:.1f}' for s in scores)}; shipped kept in {kept}; "
-              f"calibrate took {np.mean(took):.0f} s)", flush=True)  # fmt: skip
+                learned[m].append(learned_accuracy(m, chosen, test, simulated))
+        if scores:
+            print(f"{n} per shape: {100 * np.mean(scores):.1f}% "
+                  f"(draws: {', '.join(f'{100 * s:.1f}' for s in scores)}; shipped kept in {kept}; "
+                  f"calibrate took {np.mean(took):.0f} s)", flush=True)  # fmt: skip
+        trained_on = f"{args.with_data} and them" if simulated else "them alone"
         for m, acc in learned.items():
-            print(f"  {m} trained on them alone: {100 * np.mean(acc):.1f}%", flush=True)
+            print(f"  {n} per shape: {m} trained on {trained_on}: {100 * np.mean(acc):.1f}% "
+                  f"(draws: {', '.join(f'{100 * a:.1f}' for a in acc)})", flush=True)
 
 
 if __name__ == "__main__":

@@ -36,6 +36,12 @@ def add_parser(sub) -> None:
         "noise (for a real hand); randomized: a dataset made with the hand drawn per grasp "
         "(generate --preset randomized), checked (default clean)",
     )  # fmt: skip
+    parser.add_argument(
+        "--known", metavar="DIR",
+        help="grasps of your own hand whose shapes are known (an imported recording or a "
+        "dataset), added to the training grasps so the model learns that hand too "
+        "(docs/real_hand.md)",
+    )  # fmt: skip
     parser.add_argument("--out", required=True, metavar="MODEL", help="model file to write")
     add_force_flag(parser, "model file")
     parser.add_argument("--json", action="store_true", help="print one JSON document")
@@ -47,14 +53,17 @@ def run(args: argparse.Namespace) -> int:
 
     from ..experiments.workflow import describe_model, train
     from ..learn.models import save_model
-    from ..learn.trainings import training_records
+    from ..learn.trainings import training_records, with_known
 
     out = writable_file(args.out, "--out", args.force)
     params = estimator_params(args.param, "--param")
     descriptor_params = estimator_params(args.descriptor_param, "--descriptor-param")
     loaded = read_data(args.data, args)
     records = loaded.records
+    known = read_data(args.known, args) if args.known else None
     fit_on = training_records(records, args.training)
+    if known is not None:
+        fit_on = with_known(fit_on, known.records, args.training)
     start = time.perf_counter()
     model = train(fit_on, args.descriptor, args.classifier, params, descriptor_params)
     fit_time = time.perf_counter() - start
@@ -62,6 +71,8 @@ def run(args: argparse.Namespace) -> int:
         {"data": str(args.data), "train_records": len(records), "fit_time_s": fit_time,
          "training": args.training}  # fmt: skip
     )
+    if known is not None:
+        model.info.update({"known": str(args.known), "known_records": len(known.records)})
     if loaded.skipped_records:
         model.info["skipped_records"] = loaded.skipped_records
     path = save_model(out, model)
@@ -72,13 +83,16 @@ def run(args: argparse.Namespace) -> int:
         "fit_time_s": fit_time,
         "training": args.training,
     }
-    report_skipped(loaded, args, doc)
+    if known is not None:
+        doc["known_records"] = len(known.records)
+    report_skipped([loaded, known] if known is not None else loaded, args, doc)
     if args.json:
         emit_json(doc)
     else:
         print(
             f"trained {doc['descriptor']} + {doc['classifier']} on {plural(len(records), 'grasp')} "
-            f"({', '.join(doc['classes'])}) in {fit_time:.2f} s, {args.training} training"
+            + (f"and {len(known.records)} known grasps of the hand " if known else "")
+            + f"({', '.join(doc['classes'])}) in {fit_time:.2f} s, {args.training} training"
         )
         print(f"wrote model: {path}")
     return 0

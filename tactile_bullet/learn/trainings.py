@@ -62,3 +62,27 @@ def training_records(
                 "every grasp of this one was made with the same settings"
             )
     return records
+
+
+def with_known(
+    fit_on: Sequence[GraspRecord], known: Sequence[GraspRecord], training: str, seed: int = 0
+) -> list[GraspRecord]:
+    """``fit_on`` (a regime's records) with grasps of the user's own hand whose shapes are known
+    added (``train --known``): the model then learns that hand beside the simulated ones.
+    They are read like the rest (``noise-aware`` augments them too) but never checked as a
+    randomised dataset; each of their shapes must be one the training data has."""
+    known = list(known)
+    if not known:
+        raise UsageError("--known holds no grasps")
+    have = {r.shape for r in fit_on}
+    extra = sorted({r.shape for r in known} - have)
+    if extra:
+        raise UsageError(
+            f"--known holds {extra[0]!r}, a shape the training data lacks "
+            f"(it has {', '.join(sorted(have))})"
+        )
+    if training == "noise-aware":
+        from .robust import augment
+
+        known = augment(known, seed=seed + 1)
+    return [*fit_on, *known]

@@ -128,7 +128,7 @@ class ControllerSettings:
     """Return spring (N m/rad) on each long finger's distal joint J1, in an engine whose tendon
     splits J0 = J1 + J2 by its physics (``Engine.tendon``: ``mujoco``): 0 leaves the split to
     the tendon's own dynamics (the distal joint closes first), about 0.3 holds J1 back until the
-    middle phalanx meets the object (the thesis' J2-first hand), 1 keeps J1 nearly straight.
+    middle phalanx meets the object (the thesis' J2-first hand), 1 keeps J1 under about 20 deg.
     What a real hand's tendon varies in; engines that split J0 by ``coupling`` refuse it."""
     servo_stiffness: float = 0.0
     """Stiffness (N m/rad) of the long fingers' position servos (J4, J3 and the J0 tendon), in

@@ -399,3 +399,29 @@ def test_a_soft_finger_servo_gives_back_j3_when_the_tendon_squeezes():
     np.testing.assert_array_equal(stiff.final_angles, own.final_angles)
     assert again.equals(own)
     assert np.all(np.degrees(own.fci_angles()[0] - soft.fci_angles()[0]) > 5.0)
+
+
+def test_knobs_an_engine_does_not_read_are_refused_before_any_grasp(tmp_path, capsys):
+    """A record must not claim a setting its engine ignored: MuJoCo's tendon reads no coupling
+    rule (it was silently dropped), Bullet's motors have no servo stiffness and its J0 no
+    tendon spring; the benchmark's coupling-shift has no rule to shift on MuJoCo."""
+    from tactile_bullet.experiments.protocols import resolve
+    from tactile_bullet.records import load_record
+
+    err = run_error(capsys, ["grasp", "--shape", "sphere", "--engine", "mujoco",
+                             "--coupling", "distal-first"])  # fmt: skip
+    assert "coupling distal-first is a controller's rule for splitting J0" in err
+    err = run_error(capsys, ["grasp", "--shape", "sphere", "--servo-stiffness", "1"])
+    assert "servo_stiffness is a mujoco knob" in err
+    out = tmp_path / "soft.npz"
+    from tactile_bullet.cli import main
+
+    assert main(["grasp", "--shape", "sphere", "--engine", "mujoco", "--servo-stiffness", "2",
+                 "--tendon-spring", "0.3", "--out", str(out)]) == 0  # fmt: skip
+    controller = load_record(out).controller
+    assert (controller.servo_stiffness, controller.tendon_spring) == (2.0, 0.3)
+    assert "coupling-shift" in resolve("all") and "coupling-shift" not in resolve("all", "mujoco")
+    bench = tmp_path / "bench"
+    err = run_error(capsys, ["benchmark", "--engine", "mujoco", "--protocol", "coupling-shift",
+                             "--out", str(bench)])  # fmt: skip
+    assert "coupling-shift changes a controller's rule" in err and not bench.exists()

@@ -250,9 +250,15 @@ def test_engine_is_drawn_last_and_keeps_every_other_draw():
     drawn = [t.controller for t in both.tasks(seed=5)]
     assert {c.engine for c in drawn} == {"bullet", "mujoco"}
     for before, after in zip(plain.tasks(seed=5), drawn, strict=True):
+        if after.engine == "mujoco":  # its tendon reads no coupling rule: the grasp keeps none
+            assert after.coupling == "j2-first"
+            after = replace(after, coupling=before.controller.coupling)
         assert replace(after, engine="bullet") == before.controller
-    assert {t.controller.engine for t in small_sweep(**table, engine=["mujoco"]).tasks()} == {
+    alone = {k: v for k, v in table.items() if k != "coupling"}
+    assert {t.controller.engine for t in small_sweep(**alone, engine=["mujoco"]).tasks()} == {
         "mujoco"}
+    with pytest.raises(UsageError, match="coupling cannot be drawn with engine 'mujoco'"):
+        small_sweep(**table, engine=["mujoco"])
 
 
 def test_engine_draw_is_recorded_per_record_and_verify_names_both(tmp_path, capsys):

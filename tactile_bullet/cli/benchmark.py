@@ -76,7 +76,7 @@ def run(args: argparse.Namespace) -> int:
     engine = engine_name(args) or "bullet"
     from ..experiments.protocols import ENGINE_PROTOCOLS, resolve
 
-    if any(p in ENGINE_PROTOCOLS for p in resolve(args.protocol)):
+    if any(p in ENGINE_PROTOCOLS for p in resolve(args.protocol, engine)):
         engine_name(argparse.Namespace(engine="mujoco"))  # both engines must be installed
     descriptors = name_list(args.descriptor, "--descriptor", lambda: default_descriptors(scale))
     classifiers = name_list(args.classifier, "--classifier", lambda: default_classifiers(scale))

@@ -70,7 +70,16 @@ def add_parser(sub) -> None:
     add_engine_flag(parser, hand_model=True)
     parser.add_argument(
         "--coupling", choices=("j2-first", "equal-torque", "distal-first"), default="j2-first",
-        help="how the J1/J2 tendon shares its travel (docs/transfer.md; default j2-first)",
+        help="how bullet's controller shares the J1/J2 tendon's travel (docs/transfer.md; "
+        "default j2-first); mujoco's tendon shares it by its physics",
+    )  # fmt: skip
+    parser.add_argument(
+        "--tendon-spring", type=float, metavar="K",
+        help="mujoco: a return spring on each J1, N m/rad (0.3: the middle joint closes first)",
+    )  # fmt: skip
+    parser.add_argument(
+        "--servo-stiffness", type=float, metavar="K",
+        help="mujoco: the long fingers' servo stiffness, N m/rad (the model's own: ours 20)",
     )  # fmt: skip
     parser.add_argument(
         "--seed", type=seed_number, default=0,
@@ -101,7 +110,9 @@ def _controller(args):
     overrides = {"mode": args.mode, "preshape": args.preshape, "early_stop": args.early_stop,
                  "coupling": args.coupling}  # fmt: skip
     overrides.update(engine_settings(args))
-    for key, value in (("delta", args.delta), ("thres_t", args.thres), ("max_time", args.max_time)):
+    for key, value in (("delta", args.delta), ("thres_t", args.thres), ("max_time", args.max_time),
+                       ("tendon_spring", args.tendon_spring),
+                       ("servo_stiffness", args.servo_stiffness)):  # fmt: skip
         if value is not None:
             overrides[key] = value
     return ControllerSettings(**overrides)

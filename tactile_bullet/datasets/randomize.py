@@ -124,6 +124,13 @@ class Randomization:
                                  "engine's only, so no other engine can be drawn with it")
         from ..sim.engines.base import ENGINE_KNOBS
 
+        if "coupling" in out and out["coupling"] != ("j2-first",):
+            engines = out.get("engine") or ((base or ControllerSettings()).engine,)
+            if all(_reads(e, "tendon") for e in engines):  # drawn with others, it goes to them
+                raise UsageError(
+                    f"{where} coupling cannot be drawn with engine {engines[0]!r}, whose tendon "
+                    "splits J0 by its physics (draw tendon_spring)"
+                )
         for name, (attr, needs) in ENGINE_KNOBS.items():
             if name in out:
                 engines = out.get("engine") or ((base or ControllerSettings()).engine,)
@@ -192,10 +199,10 @@ class Randomization:
             changes["joint_offsets"] = tuple(
                 round(float(v), 6) for v in np.broadcast_to(offsets, len(OFFSET_JOINTS)) * bound
             )
-        if coupling is not None:
-            changes["coupling"] = coupling
         if engine is not None:
             changes["engine"] = engine
+        if coupling is not None and not _reads(engine or base.engine, "tendon"):
+            changes["coupling"] = coupling  # a tendon engine's grasp keeps the rule it reads
         try:
             return replace(base, **changes)
         except UsageError as exc:

@@ -194,7 +194,7 @@ def run_benchmark(
 
     say = log or (lambda _msg: None)
     started = time.perf_counter()
-    names = P.resolve(protocols)
+    names = P.resolve(protocols, engine)
     scale = P.scale_of(quick)
     descriptors = list(descriptors or default_descriptors(quick))
     classifiers = list(classifiers or default_classifiers(quick))

@@ -220,7 +220,7 @@ def _sets(scale: str, engine: str) -> list[SetSpec]:
     table = Randomization.from_dict(randomized_table(engine), base=base)
     for train in [s for s in out if s.name.endswith("-train")]:
         out.append(replace(train, name=randomized_name(train.name), randomize=table))
-    for rule in COUPLING_SHIFTS:
+    for rule in () if _tendon(engine) else COUPLING_SHIFTS:  # a tendon reads no rule
         out.append(SetSpec(f"{tag}coupling-{rule}", n_test, TEST_FRACTIONS, TEST_X, TEST_Z,
                            controller=replace(base, coupling=rule), seed=2))  # fmt: skip
     for s in _shift_fractions(quick):
@@ -248,6 +248,13 @@ def _sets(scale: str, engine: str) -> list[SetSpec]:
 
 COUPLING_SHIFTS: tuple[str, ...] = ("equal-torque", "distal-first")
 """The tendon rules coupling-shift tests on (training uses the default, j2-first)."""
+
+
+def _tendon(engine: str) -> bool:
+    """Whether ``engine`` splits J0 by a tendon of its own, so has no coupling rule to shift."""
+    from ..plugins import get_engine
+
+    return bool(getattr(get_engine(engine), "tendon", False))
 
 
 def randomized_name(train_set: str) -> str:
@@ -378,11 +385,12 @@ DEFAULT_PROTOCOLS: tuple[str, ...] = tuple(n for n in PROTOCOL_NAMES if n not in
 """What ``all`` runs: the protocols that need no optional package."""
 
 
-def resolve(names: str | Sequence[str] | None) -> list[str]:
+def resolve(names: str | Sequence[str] | None, engine: str = "bullet") -> list[str]:
     """'all', a comma list or a sequence -> protocol names in canonical order; a UsageError
-    naming the unknown one otherwise."""
+    naming the unknown one otherwise. On an engine whose tendon splits J0 by itself 'all'
+    leaves out coupling-shift, and naming it is a UsageError (it has no rule to shift)."""
     if names is None or names == "all" or list(names) == ["all"]:
-        return list(DEFAULT_PROTOCOLS)
+        return [n for n in DEFAULT_PROTOCOLS if n != "coupling-shift" or not _tendon(engine)]
     items = names.split(",") if isinstance(names, str) else list(names)
     items = [n.strip() for n in items if n.strip()]
     if not items:
@@ -393,7 +401,15 @@ def resolve(names: str | Sequence[str] | None) -> list[str]:
                 f"unknown protocol {n!r} (known: {', '.join(PROTOCOL_NAMES)}, or 'all' for "
                 f"{', '.join(DEFAULT_PROTOCOLS)})"
             )
+    if "coupling-shift" in items:
+        _no_rule_shift(engine)
     return [n for n in PROTOCOL_NAMES if n in items]
+
+
+def _no_rule_shift(engine: str) -> None:
+    if _tendon(engine):
+        raise UsageError(f"coupling-shift changes a controller's rule for splitting J0; the "
+                         f"{engine} engine's tendon splits it by its physics")  # fmt: skip
 
 
 def needed_sets(
@@ -408,6 +424,8 @@ def needed_sets(
     table = protocols(quick, engine)
     wanted: list[str] = []
     for name in names:
+        if name == "coupling-shift":
+            _no_rule_shift(engine)
         p = table[name]
         trains = [t for tr in [p.train] + [lv.train for lv in p.levels if lv.train]
                   for t in train_sets(tr)]  # fmt: skip

@@ -38,10 +38,17 @@ factory that says it reads it, what such an engine has)."""
 
 def unread_knob(controller, factory) -> str | None:
     """Why ``factory``'s engine cannot run ``controller`` (a knob of :data:`ENGINE_KNOBS` set
-    that it does not read), in one line; None when it reads every knob set."""
+    that it does not read, or a coupling rule other than the default where a tendon splits J0
+    by itself), in one line; None when it reads every knob set. A record must not say its grasp
+    was made with a setting the engine ignored."""
     for name, (attr, needs) in ENGINE_KNOBS.items():
         if getattr(controller, name) > 0 and not getattr(factory, attr, False):
             return f"{name} needs an engine with {needs}, which {controller.engine} lacks"
+    if controller.coupling != "j2-first" and getattr(factory, "tendon", False):
+        return (
+            f"coupling {controller.coupling} is a controller's rule for splitting J0; "
+            f"{controller.engine}'s tendon splits it by its physics (vary tendon_spring)"
+        )
     return None
 
 

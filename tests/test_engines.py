@@ -425,3 +425,70 @@ def test_knobs_an_engine_does_not_read_are_refused_before_any_grasp(tmp_path, ca
     err = run_error(capsys, ["benchmark", "--engine", "mujoco", "--protocol", "coupling-shift",
                              "--out", str(bench)])  # fmt: skip
     assert "coupling-shift changes a controller's rule" in err and not bench.exists()
+
+
+def _gym_style_hand(folder: Path) -> Path:
+    """The project's MJCF laid out as gymnasium-robotics' hand: Shadow's older numbering
+    (FFJ3 .. FFJ0, J0 distal) behind ``robot0:``, the body tree in ``robot.xml``, defaults,
+    tendons and actuators in ``shared.xml``, and each long finger's flexion driven by a servo
+    on its middle joint (``A_FFJ1``) instead of a J0 tendon."""
+    import re
+
+    text = (REPO / "urdf" / "shadow_hand.xml").read_text()
+
+    def old(m):  # FFJ4 -> robot0:FFJ3, LFJ5 -> robot0:LFJ4, THJ1 -> robot0:THJ0
+        return f'{m.group(1)}="robot0:{m.group(2) or ""}{m.group(3)}J{int(m.group(4)) - 1}"'
+
+    text = re.sub(r'(name|joint)="(A_)?(FF|MF|RF|LF|TH)J([1-5])"', old, text)
+    text = re.sub(r'<body name="([a-z]+)"', r'<body name="robot0:\1"', text)
+    for f in ("FF", "MF", "RF", "LF"):
+        text = re.sub(rf'<fixed name="{f}J0">', f'<fixed name="robot0:T_{f}J1c">', text)
+        text = re.sub(
+            rf'<position name="A_{f}J0" tendon="{f}J0"([^>]*) ctrlrange="[^"]*"/>',
+            rf'<position name="robot0:A_{f}J1" joint="robot0:{f}J1"\1 ctrlrange="0 1.571"/>',
+            text,
+        )
+    section = {t: re.search(rf"  <{t}>.*?</{t}>", text, re.S).group(0)
+               for t in ("default", "tendon", "actuator")}  # fmt: skip
+    bodies = re.search(r"<worldbody>(.*)</worldbody>", text, re.S).group(1)
+    folder.mkdir()
+    (folder / "robot.xml").write_text(f"<mujoco>{bodies}</mujoco>")
+    (folder / "shared.xml").write_text("<mujoco>" + "".join(section.values()) + "</mujoco>")
+    return folder
+
+
+def test_gym_hand_tool_renumbers_the_joints_and_gives_each_finger_a_j0_servo(tmp_path, capsys):
+    """tools/gym_hand.py turns a hand in gymnasium-robotics' layout and older numbering into
+    one --hand-model reads: joints one up, the middle-joint servo on a J1 + J2 tendon with its
+    own gain, so one J0 target closes both joints of every long finger in a grasp."""
+    import mujoco
+
+    from tactile_bullet.sim.engines.mujoco_hand import load_hand_spec
+    from tactile_bullet.sim.grasp import simulate_grasp
+
+    spec = importlib.util.spec_from_file_location("gh", REPO / "tools" / "gym_hand.py")
+    tool = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(tool)
+    assert tool.renumbered("robot0:FFJ0") == "robot0:FFJ1"
+    assert tool.renumbered("robot0:LFJ4") == "robot0:LFJ5"
+    assert tool.renumbered("robot0:palm") == "robot0:palm"
+    tree, _ = tool.convert(_gym_style_hand(tmp_path / "hand"))
+    out = tmp_path / "hand.xml"
+    tree.write(out, encoding="unicode")
+    model = load_hand_spec(out).compile()
+    act = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_ACTUATOR, "robot0:A_FFJ0")
+    assert model.actuator_trntype[act] == mujoco.mjtTrn.mjTRN_TENDON
+    assert model.actuator_gainprm[act, 0] == 20.0
+    tendon = model.actuator_trnid[act, 0]
+    adr, num = model.tendon_adr[tendon], model.tendon_num[tendon]
+    joints = {mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_JOINT, model.wrap_objid[w])
+              for w in range(adr, adr + num)}  # fmt: skip
+    assert joints == {"robot0:FFJ2", "robot0:FFJ1"}
+    record = simulate_grasp("sphere", None, Pose(),
+                            ControllerSettings(engine="mujoco", hand_model=str(out)))  # fmt: skip
+    j2, j1 = np.degrees(record.fci_angles()[1:])  # one J0 target moves both joints
+    assert np.all(j2 > 5.0) and np.all(j1 > 20.0) and "ff" in record.fingers_in_contact
+    for bad in (tmp_path / "nothing", tmp_path):
+        with pytest.raises(SystemExit) as exit_:
+            tool.convert(bad)
+        assert exit_.value.code == 2 and "gym_hand:" in capsys.readouterr().err

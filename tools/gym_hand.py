@@ -154,6 +154,7 @@ def main() -> None:
     tree, changes = convert(Path(args.source))
     ET.indent(tree)
     tree.write(out, encoding="unicode")
+    sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
     from tactile_bullet.errors import UsageError
     from tactile_bullet.sim.engines.mujoco_hand import load_hand_spec
 

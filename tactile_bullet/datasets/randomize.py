@@ -124,17 +124,17 @@ class Randomization:
                                  "engine's only, so no other engine can be drawn with it")
         from ..sim.engines.base import ENGINE_KNOBS
 
+        engines = out.get("engine") or ((base or ControllerSettings()).engine,)
         if "coupling" in out and out["coupling"] != ("j2-first",):
-            engines = out.get("engine") or ((base or ControllerSettings()).engine,)
-            if all(_reads(e, "tendon") for e in engines):  # drawn with others, it goes to them
+            # drawn with engines that read it, it goes to them only (Randomization._apply)
+            if all(engine_reads(e, "tendon") for e in engines):
                 raise UsageError(
                     f"{where} coupling cannot be drawn with engine {engines[0]!r}, whose tendon "
                     "splits J0 by its physics (draw tendon_spring)"
                 )
         for name, (attr, needs) in ENGINE_KNOBS.items():
             if name in out:
-                engines = out.get("engine") or ((base or ControllerSettings()).engine,)
-                lacking = [e for e in engines if not _reads(e, attr)]
+                lacking = [e for e in engines if not engine_reads(e, attr)]
                 if lacking:
                     raise UsageError(f"{where} {name} cannot be used with engine "
                                      f"{lacking[0]!r}, which lacks {needs}")  # fmt: skip
@@ -201,8 +201,10 @@ class Randomization:
             )
         if engine is not None:
             changes["engine"] = engine
-        if coupling is not None and not _reads(engine or base.engine, "tendon"):
-            changes["coupling"] = coupling  # a tendon engine's grasp keeps the rule it reads
+        # A drawn rule reaches an engine without a tendon only: from_dict refused a table whose
+        # engines all have one, so only a drawn engine needs looking up (not every grasp's).
+        if coupling is not None and (engine is None or not engine_reads(engine, "tendon")):
+            changes["coupling"] = coupling
         try:
             return replace(base, **changes)
         except UsageError as exc:
@@ -266,16 +268,17 @@ def randomized_table(engine: str = "bullet") -> dict[str, Any]:
     table = dict(RANDOMIZED_TABLE)
     if engine not in SOFT_CONTACT_ENGINES:
         del table["contact_stiffness"]
-    if _reads(engine, "tendon"):
+    if engine_reads(engine, "tendon"):
         del table["coupling"]
         table["tendon_spring"] = dict(TENDON_SPRING_RANGE)
-    if _reads(engine, "servo_gains"):
+    if engine_reads(engine, "servo_gains"):
         table["servo_stiffness"] = list(SERVO_STIFFNESS_CHOICES)
     return table
 
 
-def _reads(engine: str, attr: str) -> bool:
-    """Whether ``engine``'s factory says it reads a knob (``sim/engines/base.ENGINE_KNOBS``)."""
+def engine_reads(engine: str, attr: str) -> bool:
+    """Whether ``engine``'s factory says it has ``attr`` (``tendon``, ``servo_gains``: the
+    knobs of ``sim/engines/base.ENGINE_KNOBS`` it reads)."""
     from ..plugins import get_engine
 
     return bool(getattr(get_engine(engine), attr, False))

@@ -44,7 +44,7 @@ from __future__ import annotations
 from collections.abc import Sequence
 from dataclasses import dataclass, field, replace
 
-from ..datasets.randomize import Randomization, randomized_table
+from ..datasets.randomize import Randomization, engine_reads, randomized_table
 from ..datasets.sweeps import ShapeSweep, Sweep
 from ..errors import UsageError
 from ..learn.perturb import SensorModel
@@ -220,7 +220,7 @@ def _sets(scale: str, engine: str) -> list[SetSpec]:
     table = Randomization.from_dict(randomized_table(engine), base=base)
     for train in [s for s in out if s.name.endswith("-train")]:
         out.append(replace(train, name=randomized_name(train.name), randomize=table))
-    for rule in () if _tendon(engine) else COUPLING_SHIFTS:  # a tendon reads no rule
+    for rule in () if engine_reads(engine, "tendon") else COUPLING_SHIFTS:  # a tendon reads no rule
         out.append(SetSpec(f"{tag}coupling-{rule}", n_test, TEST_FRACTIONS, TEST_X, TEST_Z,
                            controller=replace(base, coupling=rule), seed=2))  # fmt: skip
     for s in _shift_fractions(quick):
@@ -248,13 +248,6 @@ def _sets(scale: str, engine: str) -> list[SetSpec]:
 
 COUPLING_SHIFTS: tuple[str, ...] = ("equal-torque", "distal-first")
 """The tendon rules coupling-shift tests on (training uses the default, j2-first)."""
-
-
-def _tendon(engine: str) -> bool:
-    """Whether ``engine`` splits J0 by a tendon of its own, so has no coupling rule to shift."""
-    from ..plugins import get_engine
-
-    return bool(getattr(get_engine(engine), "tendon", False))
 
 
 def randomized_name(train_set: str) -> str:
@@ -390,7 +383,8 @@ def resolve(names: str | Sequence[str] | None, engine: str = "bullet") -> list[s
     naming the unknown one otherwise. On an engine whose tendon splits J0 by itself 'all'
     leaves out coupling-shift, and naming it is a UsageError (it has no rule to shift)."""
     if names is None or names == "all" or list(names) == ["all"]:
-        return [n for n in DEFAULT_PROTOCOLS if n != "coupling-shift" or not _tendon(engine)]
+        tendon = engine_reads(engine, "tendon")
+        return [n for n in DEFAULT_PROTOCOLS if n != "coupling-shift" or not tendon]
     items = names.split(",") if isinstance(names, str) else list(names)
     items = [n.strip() for n in items if n.strip()]
     if not items:
@@ -407,7 +401,7 @@ def resolve(names: str | Sequence[str] | None, engine: str = "bullet") -> list[s
 
 
 def _no_rule_shift(engine: str) -> None:
-    if _tendon(engine):
+    if engine_reads(engine, "tendon"):
         raise UsageError(f"coupling-shift changes a controller's rule for splitting J0; the "
                          f"{engine} engine's tendon splits it by its physics")  # fmt: skip
 

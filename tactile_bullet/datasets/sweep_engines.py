@@ -23,10 +23,12 @@ def merge_engine(data: Mapping[str, Any], controller_data: Any, source: str) -> 
     return out
 
 
-def check_engine(controller, source: str) -> None:
-    """An unknown or uninstalled engine, or a ``hand_model`` that is not a usable MJCF Shadow
-    hand for mujoco, is refused before any grasp, naming the sweep (otherwise every grasp
-    would fail on its own and the run would end 'successfully' with nothing in it)."""
+def check_engine(controller, source: str, load_model: bool = True) -> None:
+    """An unknown or uninstalled engine, a knob it does not read, or a ``hand_model`` that is
+    not a usable MJCF Shadow hand for mujoco, is refused before any grasp, naming the sweep
+    (otherwise every grasp would fail on its own and the run would end 'successfully' with
+    nothing in it). ``load_model=False``: the hand model was loaded already (it is compiled
+    to be checked)."""
     if controller.hand_model is not None and controller.engine != "mujoco":
         raise UsageError(
             f"{source}: hand_model is an MJCF model for the mujoco engine, not {controller.engine}"
@@ -34,14 +36,12 @@ def check_engine(controller, source: str) -> None:
     if controller.engine == "bullet":
         return
     from ..plugins import get_engine
+    from ..sim.engines.base import unread_knob
 
     try:
-        factory = get_engine(controller.engine)
-        from ..sim.engines.base import unread_knob
-
-        if why := unread_knob(controller, factory):
+        if why := unread_knob(controller, get_engine(controller.engine)):
             raise UsageError(why)
-        if controller.hand_model is not None:
+        if load_model and controller.hand_model is not None:
             from ..sim.engines.mujoco_hand import load_hand_spec
 
             load_hand_spec(controller.hand_model)
@@ -58,7 +58,7 @@ def with_engine(sweep, engine: str, hand_model: str | None = None):
                          f"({', '.join(drawn)}): leave out one of them")
     settings = {"engine": engine} | ({"hand_model": hand_model} if hand_model else {})
     controller = replace(sweep.controller, **settings)
-    check_engine(controller, "--engine")
+    check_engine(controller, "--engine", load_model=False)  # generate's flags loaded it
     if sweep.randomize is not None:  # its knobs were checked against the sweep's own engine
         from .randomize import Randomization
 

@@ -133,8 +133,8 @@ class ControllerSettings:
     servo_stiffness: float = 0.0
     """Stiffness (N m/rad) of the long fingers' position servos (J4, J3 and the J0 tendon), in
     an engine whose servos are springs (``mujoco``); 0 keeps the hand model's own (ours: 20).
-    A soft servo yields after its stage: at 1, the MuJoCo Menagerie's hand's value, J3 gives
-    back 8 deg on a 45 mm sphere when the tendon squeezes. Bullet's motors are constraints
+    A soft servo yields after its stage: at 1 (the MuJoCo Menagerie hand's value) our hand's
+    J3 ends 10-12 deg more open on a 45 mm sphere, when the tendon squeezes. Bullet's motors are constraints
     with a force limit, not springs, and refuse it."""
     hand_model: str | None = None
     """Another MJCF model of the Shadow hand for the ``mujoco`` engine (``--hand-model``, an
@@ -220,24 +220,16 @@ def _check_variation(ctl: ControllerSettings) -> None:
                 f"{math.degrees(MAX_JOINT_OFFSET):g} deg (in rad), got {v!r}"
             )
     object.__setattr__(ctl, "joint_offsets", tuple(float(v) for v in offsets))
-    k = ctl.contact_stiffness
-    if isinstance(k, bool) or not isinstance(k, int | float) or not 0 <= k <= MAX_CONTACT_STIFFNESS:
-        raise UsageError(
-            f"controller contact_stiffness must be from 0 (rigid) to {MAX_CONTACT_STIFFNESS:g} "
-            f"N/m, got {k!r}"
-        )
-    k = ctl.tendon_spring
-    if isinstance(k, bool) or not isinstance(k, int | float) or not 0 <= k <= MAX_TENDON_SPRING:
-        raise UsageError(
-            f"controller tendon_spring must be from 0 (none) to {MAX_TENDON_SPRING:g} N m/rad, "
-            f"got {k!r}"
-        )
-    k = ctl.servo_stiffness
-    if isinstance(k, bool) or not isinstance(k, int | float) or not 0 <= k <= MAX_SERVO_STIFFNESS:
-        raise UsageError(
-            f"controller servo_stiffness must be from 0 (the model's own) to "
-            f"{MAX_SERVO_STIFFNESS:g} N m/rad, got {k!r}"
-        )
+    for name, top, zero, unit in (
+        ("contact_stiffness", MAX_CONTACT_STIFFNESS, "rigid", "N/m"),
+        ("tendon_spring", MAX_TENDON_SPRING, "none", "N m/rad"),
+        ("servo_stiffness", MAX_SERVO_STIFFNESS, "the model's own", "N m/rad"),
+    ):
+        k = getattr(ctl, name)
+        if isinstance(k, bool) or not isinstance(k, int | float) or not 0 <= k <= top:
+            raise UsageError(
+                f"controller {name} must be from 0 ({zero}) to {top:g} {unit}, got {k!r}"
+            )
     for name in ("tendon_spring", "servo_stiffness"):
         if getattr(ctl, name) > 0 and ctl.engine == "bullet":
             raise UsageError(

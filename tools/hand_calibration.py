@@ -42,18 +42,26 @@ def accuracy(records, families, cal) -> float:
     return float(np.mean([n == r.shape for n, r in zip(names, records, strict=True)]))
 
 
-def learned_accuracy(method: str, chosen, test, simulated=()) -> float:
+def learned_accuracy(method: str, chosen, test, simulated=(), cache=None) -> float:
     """``descriptor:classifier[:key=value...]`` trained on ``simulated`` plus ``chosen`` (the
-    known grasps, none for a reference), scored on ``test``."""
+    known grasps, none for a reference), scored on ``test``. ``cache`` (a dict kept across
+    calls) holds each descriptor's features of ``simulated`` and ``test``, which every draw
+    and count shares: computing the time series of 1,143 grasps once, not once per draw."""
     from tactile_bullet.plugins import get_classifier, get_descriptor
 
     descriptor, classifier, *params = method.split(":")
     kwargs = {k: int(v) if v.isdigit() else v for k, v in (p.split("=", 1) for p in params)}
     d = get_descriptor(descriptor)
+    cache = {} if cache is None else cache
+    if descriptor not in cache:
+        x_test = np.asarray(d.transform(test), float)
+        x_sim = np.asarray(d.transform(simulated), float) if simulated else x_test[:0]
+        cache[descriptor] = x_sim, x_test
+    x_sim, x_test = cache[descriptor]
+    x = np.vstack([x_sim, np.asarray(d.transform(chosen), float)]) if chosen else x_sim
     model = get_classifier(classifier, **kwargs)
-    fit_on = [*simulated, *chosen]
-    model.fit(np.asarray(d.transform(fit_on), float), [r.shape for r in fit_on])
-    names = model.predict(np.asarray(d.transform(test), float))
+    model.fit(x, [r.shape for r in [*simulated, *chosen]])
+    names = model.predict(x_test)
     return float(np.mean([n == r.shape for n, r in zip(names, test, strict=True)]))
 
 
@@ -80,6 +88,7 @@ def main() -> None:
     print(f"{args.data}: {len(records)} grasps of {', '.join(families)}; "
           f"pool {sum(map(len, pool.values()))}, test {len(test)}")  # fmt: skip
     methods = [m for m in args.learned.split(",") if m]
+    features: dict = {}  # each descriptor's features of the simulated and test grasps
     if not args.skip_shape_fit:
         shipped = accuracy(test, families, load_calibration())
         print(f"shipped Bullet coefficients: {100 * shipped:.1f}%")
@@ -88,7 +97,7 @@ def main() -> None:
     if simulated:
         simulated = [r for r in simulated if r.shape in families]
         for m in methods:
-            alone = learned_accuracy(m, [], test, simulated)
+            alone = learned_accuracy(m, [], test, simulated, features)
             print(f"  {m} on {args.with_data} alone: {100 * alone:.1f}%", flush=True)
     rng = np.random.default_rng(0)
     for n in (int(c) for c in args.counts.split(",")):
@@ -107,7 +116,7 @@ def main() -> None:
                 kept += hand.kept_start
                 scores.append(accuracy(test, families, hand.calibration))
             for m in methods:
-                learned[m].append(learned_accuracy(m, chosen, test, simulated))
+                learned[m].append(learned_accuracy(m, chosen, test, simulated, features))
         if scores:
             print(f"{n} per shape: {100 * np.mean(scores):.1f}% "
                   f"(draws: {', '.join(f'{100 * s:.1f}' for s in scores)}; shipped kept in {kept}; "

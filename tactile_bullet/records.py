@@ -134,8 +134,8 @@ class ControllerSettings:
     """Stiffness (N m/rad) of the long fingers' position servos (J4, J3 and the J0 tendon), in
     an engine whose servos are springs (``mujoco``); 0 keeps the hand model's own (ours: 20).
     A soft servo yields after its stage: at 1 (the MuJoCo Menagerie hand's value) our hand's
-    J3 ends 10-12 deg more open on a 45 mm sphere, when the tendon squeezes. Bullet's motors are constraints
-    with a force limit, not springs, and refuse it."""
+    J3 ends 10-12 deg more open on a 45 mm sphere, when the tendon squeezes. Bullet's motors
+    are constraints with a force limit, not springs, and refuse it."""
     hand_model: str | None = None
     """Another MJCF model of the Shadow hand for the ``mujoco`` engine (``--hand-model``, an
     absolute path; docs/engines.md lists what it must have). None: the project's own."""

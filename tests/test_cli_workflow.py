@@ -292,16 +292,21 @@ def test_train_known_grasps_teach_the_model_another_hand(folders, capsys, tmp_pa
         first[r.shape].append(r)
     known = write_records(tmp_path / "known", [r for v in first.values() for r in v[:2]])
     test = write_records(tmp_path / "test", [r for v in first.values() for r in v[2:]])
-    acc = {}
+    acc, doubt = {}, {}
     for name, extra in (("alone", []), ("known", ["--known", str(known)])):
         model = tmp_path / f"{name}.npz"
         doc = run_json(capsys, ["train", "--data", str(train), *extra, "--descriptor",
                                 "raw-joints", "--out", str(model)])  # fmt: skip
         assert doc["train_records"] == 24 and doc.get("known_records") == (6 if extra else None)
-        acc[name] = run_json(capsys, ["evaluate", "--model", str(model), "--data", str(test)])[
-            "accuracy"
-        ]
+        found = run_json(capsys, ["evaluate", "--model", str(model), "--data", str(test)])
+        acc[name], doubt[name] = found["accuracy"], found["ambiguous"]
     assert acc["alone"] <= 0.6 and acc["known"] >= acc["alone"] + 0.25, acc
+    # the known grasps, not the shape fit, second the answers of the model fitted with them
+    assert doubt["known"]["cross_check"] == "known-grasps", doubt
+    assert doubt["alone"]["cross_check"] != "known-grasps"
+    assert main(["train", "--data", str(train), "--known", str(known), "--descriptor",
+                 "raw-joints", "--out", str(tmp_path / "text.npz")]) == 0  # fmt: skip
+    assert "checked against the nearest of the 6 known grasps" in capsys.readouterr().out
 
 
 def test_train_known_with_a_shape_the_data_lacks_exits_2_and_writes_nothing(

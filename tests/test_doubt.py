@@ -136,3 +136,42 @@ def test_the_second_opinion_takes_its_share_of_the_false_alarm_budget_first(
     # the shape fit does not second itself
     fit = workflow.train(train, "raw-joints", "shape-fit")
     assert fit.info["doubt"]["cross_check"] is None
+
+
+def test_known_grasps_second_a_model_fitted_with_them_in_place_of_the_shape_fit(
+    synthetic_split, tmp_path
+):
+    """``train --known``: the nearest known grasp names the shape beside the model; where it
+    names another, the answer is ambiguous between the two. The model file keeps the grasps."""
+    train, test = synthetic_split
+    by_shape = {s: [r for r in test if r.shape == s] for s in sorted({r.shape for r in test})}
+    known = [r for grasps in by_shape.values() for r in grasps[:2]]
+    model = workflow.train([*train, *known], "signature", "svm", known=known)
+    cal = model.info["doubt"]
+    assert cal["cross_check"] == doubt.KNOWN_CHECK and cal["known"]["grasps"] == len(known)
+    assert "cross_check_contradicts" not in cal  # the shape fit took no part
+    # a known grasp is its own nearest: the check names its shape
+    names, proba = model.predict_with_proba(known)
+    asked = doubt.doubts(model, known, names, proba)
+    assert [d["cross_check"] for d in asked] == [r.shape for r in known]
+    # a model answer the known grasps contradict is flagged with both names
+    wrong = ["cone" if r.shape != "cone" else "sphere" for r in known]
+    found = doubt.doubts(model, known, wrong, None)
+    pairs = [[w, r.shape] for w, r in zip(wrong, known, strict=True)]
+    assert [d["ambiguous"] for d in found] == pairs
+    loaded = load_model(save_model(tmp_path / "m.npz", model))
+    assert list(loaded.known.labels) == [r.shape for r in known]
+    again = doubt.doubts(loaded, known, wrong, None)
+    assert [d["ambiguous"] for d in again] == [d["ambiguous"] for d in found]
+
+
+def test_the_nearest_known_grasp_ignores_features_the_known_grasps_share():
+    """A feature every known grasp has the same value of cannot tell them apart; scaled by a
+    zero spread it would decide every distance. It is left out."""
+    features = np.array([[0.0, 1.0, 5.0], [0.1, 1.0, 5.0], [1.0, 1.0, 5.0], [1.1, 1.0, 5.0]])
+    known = doubt.KnownGrasps(features, np.array(["cone", "cone", "torus", "torus"]))
+    query = np.array([[0.05, 9.0, -3.0], [1.05, 1.0, 5.0]])
+    assert list(known.nearest_of(query)) == ["cone", "torus"]
+    assert known.self_agreement() == 1.0
+    # one grasp of a shape: nothing to say how far the check holds
+    assert doubt.KnownGrasps(features[:3], known.labels[:3]).self_agreement() is None

@@ -268,3 +268,24 @@ def test_state_protocol_saves_a_plugin_classifier(register_test_plugin, syntheti
         assert "estimator_skops" not in data.files
     loaded = load_model(path)
     np.testing.assert_array_equal(loaded.predict_records(test), model.predict_records(test))
+
+
+@pytest.fixture
+def saved_with_known(synthetic_split, tmp_path):
+    train, test = synthetic_split
+    model = workflow.train(train, "signature", "svm", known=test[:4], doubt=False)
+    return save_model(tmp_path / "known.npz", model)
+
+
+@pytest.mark.parametrize("damage, message", [
+    (lambda m: m.pop("known.labels"), "known grasps are incomplete"),
+    (lambda m: m.update({"known.labels": np.array(["ovoid"] * 4)}), "'ovoid', not one of"),
+    (lambda m: m.update({"known.features": m["known.features"][:2]}), "do not match"),
+    (lambda m: m.update({"known.features": m["known.features"] * np.nan}), "not finite"),
+    (lambda m: _set_meta(m, known_descriptor="fingerprint-3d"), "fingerprint-3d"),
+])  # fmt: skip
+def test_a_model_with_damaged_known_grasps_is_refused(saved_with_known, tmp_path, damage, message):
+    """The known grasps second the model's answers: damaged, they are refused, never used."""
+    assert load_model(saved_with_known).known is not None
+    with pytest.raises(UsageError, match=message):
+        load_model(_rewrite(saved_with_known, tmp_path, damage))

@@ -15,8 +15,12 @@ does with them), e.g. ``signature:knn:n_neighbors=1`` (one nearest known grasp);
 ``--with-data SIM`` on the simulated grasps of SIM plus the chosen ones (what ``tactile-bullet
 train --data SIM --known KNOWN`` does), and with no chosen grasp at all for reference.
 
+``--doubt``: also how many of those answers are flagged ``ambiguous`` as a ``train --known``
+model flags them (the margin, and the nearest known grasp as second opinion; docs/doubt.md).
+
 Usage: python tools/hand_calibration.py --data DIR [--draws 2] [--counts 1,2,5,10] [--known-sizes]
        [--learned signature:knn:n_neighbors=1,coupled-joints:knn:n_neighbors=1] [--with-data SIM]
+       [--skip-shape-fit] [--doubt]
 """
 
 from __future__ import annotations
@@ -42,11 +46,19 @@ def accuracy(records, families, cal) -> float:
     return float(np.mean([n == r.shape for n, r in zip(names, records, strict=True)]))
 
 
-def learned_accuracy(method: str, chosen, test, simulated=(), cache=None) -> float:
+def learned_accuracy(
+    method: str, chosen, test, simulated=(), cache=None, doubt: dict | None = None
+) -> float:
     """``descriptor:classifier[:key=value...]`` trained on ``simulated`` plus ``chosen`` (the
     known grasps, none for a reference), scored on ``test``. ``cache`` (a dict kept across
     calls) holds each descriptor's features of ``simulated`` and ``test``, which every draw
-    and count shares: computing the time series of 1,143 grasps once, not once per draw."""
+    and count shares: computing the time series of 1,143 grasps once, not once per draw.
+
+    ``doubt`` (a dict, filled in): what ``train --known`` makes of the doubt, the margin
+    calibrated on held-out folds and the nearest known grasp as second opinion
+    (``learn/doubt.py``), as ``evaluate`` reports it: the wrong and right answers flagged."""
+    from tactile_bullet.learn import doubt as doubts
+    from tactile_bullet.learn.models import Model
     from tactile_bullet.plugins import get_classifier, get_descriptor
 
     descriptor, classifier, *params = method.split(":")
@@ -61,8 +73,23 @@ def learned_accuracy(method: str, chosen, test, simulated=(), cache=None) -> flo
     x = np.vstack([x_sim, np.asarray(d.transform(chosen), float)]) if chosen else x_sim
     model = get_classifier(classifier, **kwargs)
     model.fit(x, [r.shape for r in [*simulated, *chosen]])
-    names = model.predict(x_test)
-    return float(np.mean([n == r.shape for n, r in zip(names, test, strict=True)]))
+    names = np.asarray(model.predict(x_test)).astype(str)
+    truth = [r.shape for r in test]
+    if doubt is not None and chosen:
+        y = [r.shape for r in [*simulated, *chosen]]
+        make = lambda: get_classifier(classifier, **kwargs)  # noqa: E731
+        reference = doubts.KnownGrasps.from_records(chosen)
+        cal = doubts.with_known_check(doubts.calibrate_margin(make, x, np.array(y)), reference)
+        fitted = Model(descriptor, {}, classifier, kwargs, model, {"doubt": cal}, reference)
+        proba = np.asarray(model.predict_proba(x_test), dtype=float)
+        found = doubts.evaluation_doubt(fitted, test, truth, names, proba)
+        wrong = int(np.sum(names != np.array(truth)))
+        doubt["wrong"] = doubt.get("wrong", 0) + wrong
+        doubt["wrong_flagged"] = doubt.get("wrong_flagged", 0) + round(
+            (found["wrong_flagged"] or 0) * wrong
+        )
+        doubt.setdefault("right_flagged", []).append(found["right_flagged"] or 0.0)
+    return float(np.mean(names == np.array(truth)))
 
 
 def main() -> None:
@@ -74,6 +101,7 @@ def main() -> None:
     ap.add_argument("--learned", default="", help="descriptor:classifier[:k=v],... to train")
     ap.add_argument("--with-data", help="simulated grasps the --learned methods train on too")
     ap.add_argument("--skip-shape-fit", action="store_true", help="score --learned only")
+    ap.add_argument("--doubt", action="store_true", help="also --learned's answers flagged")
     args = ap.parse_args()
     simulated = []
     if args.with_data:
@@ -106,6 +134,7 @@ def main() -> None:
             continue
         scores, kept, took = [], 0, []
         learned: dict[str, list[float]] = {m: [] for m in methods}
+        flags: dict[str, dict] = {m: {} for m in methods}
         for _ in range(args.draws if n < smallest else 1):
             chosen = [v[i] for v in pool.values() for i in rng.choice(len(v), n, replace=False)]
             if not args.skip_shape_fit:
@@ -116,7 +145,9 @@ def main() -> None:
                 kept += hand.kept_start
                 scores.append(accuracy(test, families, hand.calibration))
             for m in methods:
-                learned[m].append(learned_accuracy(m, chosen, test, simulated, features))
+                learned[m].append(learned_accuracy(
+                    m, chosen, test, simulated, features, flags[m] if args.doubt else None
+                ))  # fmt: skip
         if scores:
             print(f"{n} per shape: {100 * np.mean(scores):.1f}% "
                   f"(draws: {', '.join(f'{100 * s:.1f}' for s in scores)}; shipped kept in {kept}; "
@@ -125,6 +156,10 @@ def main() -> None:
         for m, acc in learned.items():
             print(f"  {n} per shape: {m} trained on {trained_on}: {100 * np.mean(acc):.1f}% "
                   f"(draws: {', '.join(f'{100 * a:.1f}' for a in acc)})", flush=True)
+            if flags[m]:
+                f = flags[m]
+                print(f"    ambiguous: {f['wrong_flagged']} of {f['wrong']} wrong answers, "
+                      f"{100 * np.mean(f['right_flagged']):.1f}% of right ones", flush=True)
 
 
 if __name__ == "__main__":

@@ -65,7 +65,10 @@ def run(args: argparse.Namespace) -> int:
     if known is not None:
         fit_on = with_known(fit_on, known.records, args.training)
     start = time.perf_counter()
-    model = train(fit_on, args.descriptor, args.classifier, params, descriptor_params)
+    model = train(
+        fit_on, args.descriptor, args.classifier, params, descriptor_params,
+        known=known.records if known is not None else None,
+    )  # fmt: skip
     fit_time = time.perf_counter() - start
     model.info.update(
         {"data": str(args.data), "train_records": len(records), "fit_time_s": fit_time,
@@ -94,5 +97,18 @@ def run(args: argparse.Namespace) -> int:
             + (f"and {len(known.records)} known grasps of the hand " if known else "")
             + f"({', '.join(doc['classes'])}) in {fit_time:.2f} s, {args.training} training"
         )
+        if known is not None:
+            print(known_check_line(model.info.get("doubt", {}).get("known", {})))
         print(f"wrote model: {path}")
     return 0
+
+
+def known_check_line(known: dict) -> str:
+    """What the model's answers are checked against, and how far the check agrees with
+    itself on the known grasps (docs/doubt.md)."""
+    line = (f"answers are checked against the nearest of the {known.get('grasps')} known grasps "
+            "(an answer it contradicts is ambiguous)")  # fmt: skip
+    agreement = known.get("self_agreement")
+    if agreement is None:
+        return line + "; with one grasp of a shape, how far the check holds is not known"
+    return line + f"; each known grasp's nearest other names its shape {100 * agreement:.0f}%"

@@ -112,11 +112,14 @@ def train(
     params: Mapping[str, Any] | None = None,
     descriptor_params: Mapping[str, Any] | None = None,
     doubt: bool = True,
+    known: Sequence[GraspRecord] | None = None,
 ):
     """Fit ``classifier`` (with estimator ``params``) on ``descriptor`` features of the records.
 
     ``doubt``: also calibrate the model's ambiguity threshold on held-out folds of the records
     (``learn/doubt.py``; costs ``doubt.FOLDS`` more fits), kept in ``info["doubt"]``.
+    ``known``: grasps of the user's hand (already among ``records``, ``train --known``) kept
+    in the model to second its answers in place of the shape fit (``doubt.KnownGrasps``).
 
     Returns a :class:`tactile_bullet.learn.models.Model` that remembers both names and
     parameters, so a saved model rebuilds the same features when it is loaded elsewhere."""
@@ -135,13 +138,21 @@ def train(
     x = np.asarray(desc.transform(records), dtype=float)
     estimator = _fit(estimator, classifier, bool(params), x, y)
     info: dict[str, Any] = {}
+    reference = None
+    if known:
+        from ..learn.doubt import KnownGrasps
+
+        reference = KnownGrasps.from_records(_checked(known, "known"))
     if doubt:
-        from ..learn.doubt import calibrate_margin
+        from ..learn.doubt import calibrate_margin, with_known_check
 
         # the ambiguity threshold, set on grasps each held out of a fit (learn/doubt.py)
         info["doubt"] = calibrate_margin(
-            lambda: _estimator(classifier, params), x, y, records=records, classifier=classifier
-        )
+            lambda: _estimator(classifier, params), x, y,
+            records=records if reference is None else None, classifier=classifier,
+        )  # fmt: skip
+        if reference is not None:
+            info["doubt"] = with_known_check(info["doubt"], reference)
     return Model(
         descriptor=desc.name,
         descriptor_params=dict(desc.params),
@@ -149,6 +160,7 @@ def train(
         classifier_params=dict(params or {}),
         estimator=estimator,
         info=info,
+        known=reference,
     )
 
 

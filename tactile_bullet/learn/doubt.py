@@ -22,11 +22,20 @@ contradicts is ambiguous between the two names. The margin threshold then gets w
 cross-check leaves of the ``FALSE_ALARM`` budget on the held-out right answers (nothing, where the
 shape fit alone contradicts more of them: ``info["doubt"]["right_flagged"]`` then says by how
 much the promise is missed on the training grasps).
+
+A model fitted with grasps of the user's own hand (``train --known``) is cross-checked by those
+grasps instead (:class:`KnownGrasps`): the nearest known grasp (in ``KNOWN_DESCRIPTOR``'s
+features, each scaled by its spread over the known grasps) names the shape too. The shape fit
+assumes our hand's geometry and coupling and reads an unfamiliar hand poorly (58-62% on the
+blind hand of ``docs/independent_hand.md``, so it contradicted a quarter of right answers
+there); the known grasps are that hand. The margin is then calibrated on the training folds
+alone, with the whole ``FALSE_ALARM`` budget.
 """
 
 from __future__ import annotations
 
 from collections.abc import Callable, Sequence
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
@@ -39,6 +48,75 @@ CROSS_CHECK = "shape-fit"
 """The independent second opinion (the training-free shape fit)."""
 CROSS_CHECK_SAMPLES = 100
 """Training grasps the cross-check reads while calibrating (a shape fit takes ~60 ms)."""
+KNOWN_CHECK = "known-grasps"
+"""The second opinion of a model fitted with the user's known grasps (``train --known``)."""
+KNOWN_DESCRIPTOR = "signature+coupled-joints"
+"""What the known grasps are compared in: the signature's shape of the closure and the
+absolute joint angles, J1 + J2 read together so no J1/J2 split is assumed."""
+
+
+@dataclass(frozen=True)
+class KnownGrasps:
+    """Grasps of the user's hand whose shapes are known, kept in a model file to second its
+    answers: each answer is checked against the shape of the nearest known grasp.
+
+    ``features`` (n, d) are ``descriptor``'s features of the grasps; distances scale each
+    feature by its spread over the known grasps (features that do not vary among them are
+    left out: they cannot tell the grasps apart, and a zero spread would magnify noise)."""
+
+    features: np.ndarray
+    labels: np.ndarray
+    descriptor: str = KNOWN_DESCRIPTOR
+
+    @classmethod
+    def from_records(cls, records: Sequence, descriptor: str = KNOWN_DESCRIPTOR) -> KnownGrasps:
+        from ..plugins import get_descriptor
+
+        x = np.asarray(get_descriptor(descriptor).transform(list(records)), dtype=float)
+        return cls(x, np.array([str(r.shape) for r in records]), descriptor)
+
+    def _scaled(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        mean, spread = self.features.mean(axis=0), self.features.std(axis=0)
+        keep = spread > 1e-9
+        return ((self.features - mean)[:, keep] / spread[keep],
+                (np.asarray(x, dtype=float) - mean)[:, keep] / spread[keep])  # fmt: skip
+
+    def nearest_of(self, x: np.ndarray) -> np.ndarray:
+        """The shape of the nearest known grasp to each row of ``x`` (the features)."""
+        known, rows = self._scaled(x)
+        if len(rows) == 0:
+            return np.array([], dtype=str)
+        distance = np.linalg.norm(rows[:, None, :] - known[None, :, :], axis=2)
+        return self.labels[np.argmin(distance, axis=1)].astype(str)
+
+    def nearest(self, records: Sequence) -> np.ndarray:
+        """The shape of the nearest known grasp to each record."""
+        from ..plugins import get_descriptor
+
+        x = np.asarray(get_descriptor(self.descriptor).transform(list(records)), dtype=float)
+        return self.nearest_of(x)
+
+    def self_agreement(self) -> float | None:
+        """Share of known grasps whose nearest *other* known grasp has their shape (None with
+        fewer than two grasps of every shape): how far the check can be trusted on this hand."""
+        _, counts = np.unique(self.labels, return_counts=True)
+        if len(counts) < 2 or counts.min() < 2:
+            return None
+        known, _ = self._scaled(self.features[:0])
+        distance = np.linalg.norm(known[:, None, :] - known[None, :, :], axis=2)
+        np.fill_diagonal(distance, np.inf)
+        return float(np.mean(self.labels[np.argmin(distance, axis=1)] == self.labels))
+
+    def check(self, classes: Sequence[str]) -> None:
+        """Refuse (ValueError) grasps the model cannot have been fitted with."""
+        x, y = self.features, self.labels
+        if x.ndim != 2 or y.ndim != 1 or len(x) != len(y) or len(y) == 0:
+            raise ValueError("known grasps' features and labels do not match")
+        if not np.all(np.isfinite(x)):
+            raise ValueError("known grasps' features are not finite")
+        extra = {str(v) for v in y} - {str(c) for c in classes}
+        if extra:
+            raise ValueError(f"a known grasp is a {sorted(extra)[0]!r}, not one of its classes")
 
 
 def cross_check_applies(classes: Sequence[str], classifier: str) -> bool:
@@ -201,6 +279,21 @@ def calibrate_margin(
     }
 
 
+def with_known_check(calibration: dict[str, Any], known: KnownGrasps) -> dict[str, Any]:
+    """A margin calibration (made without the shape fit) seconded by the known grasps: the
+    model file's ``info["doubt"]`` for ``train --known``."""
+    return {
+        **calibration,
+        "cross_check": KNOWN_CHECK,
+        "wrong_flagged": None,  # the held-out folds say nothing of the check on the user's hand
+        "known": {
+            "grasps": int(len(known.labels)),
+            "descriptor": known.descriptor,
+            "self_agreement": known.self_agreement(),
+        },  # fmt: skip
+    }
+
+
 def model_threshold(info: dict) -> float | None:
     """The calibrated threshold in a model's ``info``, None where there is none (an older
     model file, or one whose data held too few grasps to hold any out)."""
@@ -251,16 +344,27 @@ def model_cross_check(info: dict) -> bool:
     return isinstance(doubt, dict) and doubt.get("cross_check") == CROSS_CHECK
 
 
+def second_opinion(model) -> str | None:
+    """Which second opinion a model's answers get: ``KNOWN_CHECK`` (it holds known grasps),
+    ``CROSS_CHECK`` (its calibration asked for the shape fit) or None."""
+    if getattr(model, "known", None) is not None:
+        return KNOWN_CHECK
+    return CROSS_CHECK if model_cross_check(model.info) else None
+
+
 def doubts(
     model, records: Sequence, names: Sequence[str], proba: np.ndarray | None,
     cross_check: bool = True,
 ) -> list:  # fmt: skip
-    """:func:`answer_doubt` of each of a model's answers, with the cross-check the model's
-    calibration asked for (unless ``cross_check`` is False: the margin only, ~60 ms sooner)."""
+    """:func:`answer_doubt` of each of a model's answers, with its second opinion
+    (:func:`second_opinion`; unless ``cross_check`` is False: the margin only, sooner)."""
     classes = [str(c) for c in model.classes]
     threshold = model.doubt_margin
     others: Sequence[str | None] = [None] * len(names)
-    if cross_check and model_cross_check(model.info) and len(records):
+    opinion = second_opinion(model) if cross_check and len(records) else None
+    if opinion == KNOWN_CHECK:
+        others = list(model.known.nearest(records))
+    elif opinion == CROSS_CHECK:
         others = list(cross_check_names(records, classes))
     return [
         answer_doubt(classes, str(n), None if proba is None else proba[i], threshold, others[i])
@@ -275,7 +379,7 @@ def evaluation_doubt(model, records: Sequence, y_true, y_pred, proba) -> dict[st
     found = doubts(model, records, y_pred, proba)
     flags = np.array([d["ambiguous"] is not None for d in found], dtype=bool)
     correct = np.asarray(y_pred).astype(str) == np.asarray(y_true).astype(str)
-    cross = CROSS_CHECK if model_cross_check(model.info) else None
+    cross = second_opinion(model)
     return {"margin": model.doubt_margin, "cross_check": cross, **flag_shares(flags, correct)}
 
 

@@ -54,6 +54,7 @@ _DIST_METRIC = re.compile(r"^sklearn\.metrics\._dist_metrics\.[A-Za-z]+(32|64)$"
 """Neighbour-index distance metrics (data-only Cython classes)."""
 
 _STATE_PREFIX = "state."
+_KNOWN_FEATURES, _KNOWN_LABELS = "known.features", "known.labels"
 
 
 @runtime_checkable
@@ -80,6 +81,9 @@ class Model:
     classifier_params: dict
     estimator: Any
     info: dict = field(default_factory=dict)
+    known: Any = None
+    """:class:`tactile_bullet.learn.doubt.KnownGrasps` of a model fitted with the user's known
+    grasps (``train --known``): they second its answers. Saved as ``known.*`` arrays."""
     software_version: str = __version__
     format_version: int = MODEL_FORMAT_VERSION
 
@@ -147,6 +151,10 @@ def save_model(path: str | Path, model: Model) -> Path:
         "info": dict(model.info),
     }
     arrays: dict[str, np.ndarray] = {}
+    if model.known is not None:
+        meta["known_descriptor"] = model.known.descriptor
+        arrays[_KNOWN_FEATURES] = np.asarray(model.known.features, dtype=float)
+        arrays[_KNOWN_LABELS] = np.asarray(model.known.labels).astype(str)
     if isinstance(est, StatefulEstimator):
         state, state_arrays = est.to_state()
         meta["estimator_encoding"] = "state"
@@ -178,9 +186,9 @@ a million grasps holds ~200 MB of support vectors)."""
 
 
 def _is_model_member(name: str) -> bool:
-    return name in ("meta", "estimator_state", "estimator_skops") or name.startswith(
-        _STATE_PREFIX
-    )
+    return name in (
+        "meta", "estimator_state", "estimator_skops", _KNOWN_FEATURES, _KNOWN_LABELS
+    ) or name.startswith(_STATE_PREFIX)  # fmt: skip
 
 
 def _read(path: Path) -> tuple[dict, dict[str, np.ndarray]]:
@@ -276,6 +284,7 @@ def load_model(path: str | Path) -> Model:
     if classes != [str(c) for c in meta.get("classes", [])]:
         raise UsageError(f"{path} is not a valid model: its classes do not match its metadata")
     info = meta.get("info", {})
+    known = _load_known(path, meta, contents, classes)
     return Model(
         descriptor=descriptor,
         descriptor_params=descriptor_params,
@@ -283,9 +292,35 @@ def load_model(path: str | Path) -> Model:
         classifier_params=classifier_params,
         estimator=estimator,
         info=info if isinstance(info, dict) else {},
+        known=known,
         software_version=str(meta.get("software_version", "unknown")),
         format_version=MODEL_FORMAT_VERSION,
     )
+
+
+def _load_known(path: Path, meta: dict, contents: dict[str, np.ndarray], classes: list[str]):
+    """The model's known grasps (None where it was fitted without), checked: damaged ones
+    are refused, not used to second answers."""
+    from .doubt import KnownGrasps
+
+    parts = (contents.get(_KNOWN_FEATURES), contents.get(_KNOWN_LABELS))
+    descriptor = meta.get("known_descriptor")
+    if all(p is None for p in parts) and descriptor is None:
+        return None
+    if any(p is None for p in parts) or not isinstance(descriptor, str):
+        raise UsageError(f"{path} is not a valid model: its known grasps are incomplete")
+    features, labels = parts
+    if features.dtype.kind not in "fiu" or labels.dtype.kind != "U":
+        raise UsageError(f"{path} is not a valid model: its known grasps are not numbers/names")
+    known = KnownGrasps(features.astype(float), labels, descriptor)
+    try:
+        known.check(classes)
+        from .. import plugins
+
+        plugins.get_descriptor(descriptor)
+    except (ValueError, UsageError) as exc:
+        raise UsageError(f"{path} is not a valid model: {exc}") from None
+    return known
 
 
 def _load_state(path: Path, contents: dict[str, np.ndarray], template: Any) -> Any:

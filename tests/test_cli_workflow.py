@@ -298,6 +298,9 @@ def test_train_known_grasps_teach_the_model_another_hand(folders, capsys, tmp_pa
         doc = run_json(capsys, ["train", "--data", str(train), *extra, "--descriptor",
                                 "raw-joints", "--out", str(model)])  # fmt: skip
         assert doc["train_records"] == 24 and doc.get("known_records") == (6 if extra else None)
+        if extra:
+            assert doc["known_check"]["grasps"] == 6
+            assert 0.0 <= doc["known_check"]["self_agreement"] <= 1.0
         found = run_json(capsys, ["evaluate", "--model", str(model), "--data", str(test)])
         acc[name], doubt[name] = found["accuracy"], found["ambiguous"]
     assert acc["alone"] <= 0.6 and acc["known"] >= acc["alone"] + 0.25, acc

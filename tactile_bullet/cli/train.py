@@ -88,6 +88,7 @@ def run(args: argparse.Namespace) -> int:
     }
     if known is not None:
         doc["known_records"] = len(known.records)
+        doc["known_check"] = model.info.get("doubt", {}).get("known")
     report_skipped([loaded, known] if known is not None else loaded, args, doc)
     if args.json:
         emit_json(doc)

@@ -162,3 +162,28 @@ def test_every_descriptor_maps_records_to_a_float_matrix(name, records):
     assert desc.transform([]).shape == (0, len(desc.feature_names()))
     with pytest.raises(UsageError, match="single record"):
         desc.transform(records[0])
+
+
+def test_finger_points_at_the_zero_pose_are_the_sheets_fingertips():
+    """docs/hand.md: with every joint at 0 the tips sit at z = 0.191, 0.195, 0.191 and
+    0.1825 m (ff, mf, rf, lf; LF's knuckle on its metacarpal), y = 0, in the palm frame."""
+    from tactile_bullet.learn.finger_points import finger_points
+
+    points = finger_points(np.zeros((3, 4)))
+    np.testing.assert_allclose(points[:, 2, 1], [0.191, 0.195, 0.191, 0.1825], atol=1e-9)
+    np.testing.assert_allclose(points[..., 0], 0.0, atol=1e-12)
+
+
+def test_finger_points_follow_each_phalanx_through_the_fcis_cumulative_angles():
+    """J3 at 90 deg lays the proximal phalanx along -y (toward the object); J2 at 90 deg more
+    points the middle one back down (-z); J1 at 90 deg more turns the distal one toward the
+    palm (+y). Each end is 45, 25 and 26 mm along its phalanx (docs/hand.md)."""
+    from tactile_bullet.learn.finger_points import finger_points
+
+    ff = finger_points(np.full((3, 4), np.pi / 2))[0]
+    np.testing.assert_allclose(ff, [[-0.045, 0.095], [-0.045, 0.070], [-0.019, 0.070]], atol=1e-9)
+    desc = plugins.get_descriptor("finger-points")
+    record = make_record("sphere")
+    row = desc.transform([record])[0]
+    assert len(desc.feature_names()) == row.size == 24
+    np.testing.assert_allclose(row, finger_points(record.fci_angles()).ravel())

@@ -339,7 +339,9 @@ def resplit(record, share_j2: float):
     return replace(record, final_angles=final, angles=ramp * final[None, :])
 
 
-@pytest.mark.parametrize("name", ["coupled-signature", "coupled-joints", "coupled-time-series"])
+@pytest.mark.parametrize(
+    "name", ["coupled-signature", "coupled-joints", "coupled-time-series", "coupled-finger-points"]
+)
 def test_coupled_descriptors_ignore_the_split_of_j0(name):
     records = make_records(per_shape=2, seed=1)
     desc = get_descriptor(name)

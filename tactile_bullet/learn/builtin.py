@@ -17,6 +17,7 @@ def register_descriptors(register):
         CoupledTimeSeriesDescriptor,
     )
     from .descriptors import ContactNormalsDescriptor, RawJointsDescriptor, SignatureDescriptor
+    from .finger_points import CoupledFingerPointsDescriptor, FingerPointsDescriptor
     from .robust import RobustJointsDescriptor, RobustSignatureDescriptor
     from .time_series import TimeSeriesDescriptor
 
@@ -30,5 +31,7 @@ def register_descriptors(register):
         CoupledSignatureDescriptor,
         CoupledJointsDescriptor,
         CoupledTimeSeriesDescriptor,
+        FingerPointsDescriptor,
+        CoupledFingerPointsDescriptor,
     ):
         register(descriptor.name, descriptor)

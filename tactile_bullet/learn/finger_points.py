@@ -1,0 +1,87 @@
+"""Where the fingers are, not how their joints divide the bend: the phalanx ends in space.
+
+The signature's FCI (thesis eq. 2.2) holds each long finger's *cumulative* flexion: phi3 = J3,
+phi2 = J3 + J2, phi1 = J3 + J2 + J1, the absolute angle of the proximal, middle and distal
+phalanx. ``finger-points`` reads the same three angles through the phalanx lengths of the
+hand's sheet (docs/hand.md): the end of phalanx k sits at
+
+    (y, z) = knuckle + sum over i <= k of L_i * (-sin phi_i, cos phi_i)
+
+in the finger's flexion plane (palm frame; y toward the object, z along the fingers). For each
+long finger it gives the (y, z) of J2, of J1 and of the fingertip: 24 numbers, in metres.
+
+Why: an enclosure grasp ends with the phalanges *on the object*, so where they end is set by
+the object's shape and size, while how a finger's bend divides between J3, J2 and J1 is set
+by the hand (servo stiffness, the J1/J2 tendon, the simulator). Two hands that wrap the same
+sphere with J3 10 deg more open and J2 10 deg more closed put their fingertips near the same
+place, and give close features here, where raw joint angles or the signature's lines differ.
+How far that holds across engines and hands is measured in docs/transfer.md.
+
+``coupled-finger-points`` does the same on :func:`.coupled.coupled_record` (J2 = J1 = J0 / 2),
+for a hand that publishes only J0 = J1 + J2.
+
+The knuckle heights and finger planes are our hand's (``hand.KNUCKLE_Z``); J4 (spread) and
+LF J5 (cupping) are taken as 0, as Algorithm 1 leaves them in an enclosure grasp.
+"""
+
+from __future__ import annotations
+
+from dataclasses import asdict, dataclass
+from typing import ClassVar
+
+import numpy as np
+
+from ..hand import KNUCKLE_Z, LONG_FINGERS
+from .coupled import coupled_record
+from .descriptors import check_records
+
+PHALANX_ENDS: tuple[float, float, float] = (0.045, 0.025, 0.026)
+"""J3 to J2, J2 to J1, J1 to the tip frame (m): the joint origins of docs/hand.md."""
+
+POINTS: tuple[str, ...] = ("j2", "j1", "tip")
+
+
+def finger_points(fci_angles: np.ndarray) -> np.ndarray:
+    """(4, 3, 2) phalanx ends (y, z) in m, per long finger (ff, mf, rf, lf) and point (J2, J1,
+    tip), from (3, 4) final angles (rows J3, J2, J1) in rad."""
+    angles = np.asarray(fci_angles, dtype=float)
+    phi = np.cumsum(angles, axis=0)  # absolute angle of each phalanx: the FCI's rows
+    lengths = np.asarray(PHALANX_ENDS)[:, None]
+    dy = np.cumsum(-lengths * np.sin(phi), axis=0)
+    dz = np.cumsum(lengths * np.cos(phi), axis=0)
+    knuckle = np.array([KNUCKLE_Z[f] for f in LONG_FINGERS])
+    return np.stack([dy.T, dz.T + knuckle[:, None]], axis=-1)
+
+
+@dataclass(frozen=True)
+class FingerPointsDescriptor:
+    """Phalanx ends (J2, J1, tip; y and z in m) of each long finger: where it wrapped."""
+
+    name: ClassVar[str] = "finger-points"
+
+    @property
+    def params(self) -> dict:
+        return asdict(self)
+
+    def feature_names(self) -> list[str]:
+        return [f"{f}_{p}_{axis}" for f in LONG_FINGERS for p in POINTS for axis in "yz"]
+
+    def _angles(self, record) -> np.ndarray:
+        return record.fci_angles()
+
+    def transform(self, records) -> np.ndarray:
+        items = check_records(records)
+        out = np.empty((len(items), 4 * len(POINTS) * 2))
+        for row, record in enumerate(items):
+            out[row] = finger_points(self._angles(record)).ravel()
+        return out
+
+
+@dataclass(frozen=True)
+class CoupledFingerPointsDescriptor(FingerPointsDescriptor):
+    """:class:`FingerPointsDescriptor` of the record with J0 split evenly (J3 and J0 only)."""
+
+    name: ClassVar[str] = "coupled-finger-points"
+
+    def _angles(self, record) -> np.ndarray:
+        return coupled_record(record).fci_angles()

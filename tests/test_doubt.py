@@ -175,3 +175,7 @@ def test_the_nearest_known_grasp_ignores_features_the_known_grasps_share():
     assert known.self_agreement() == 1.0
     # one grasp of a shape: nothing to say how far the check holds
     assert doubt.KnownGrasps(features[:3], known.labels[:3]).self_agreement() is None
+    # grasps that do not differ at all give no opinion (not the first grasp's shape)
+    alike = doubt.KnownGrasps(np.ones((4, 3)), known.labels)
+    assert list(alike.nearest_of(query)) == ["", ""] and alike.self_agreement() is None
+    assert doubt.answer_doubt(["cone", "torus"], "cone", None, None, "")["ambiguous"] is None

@@ -111,5 +111,6 @@ def known_check_line(known: dict) -> str:
             "(an answer it contradicts is ambiguous)")  # fmt: skip
     agreement = known.get("self_agreement")
     if agreement is None:
-        return line + "; with one grasp of a shape, how far the check holds is not known"
+        return line + ("; how far the check holds is not known (a shape has one grasp, or the "
+                       "grasps do not differ)")  # fmt: skip
     return line + f"; each known grasp's nearest other names its shape {100 * agreement:.0f}%"

@@ -27,8 +27,8 @@ A model fitted with grasps of the user's own hand (``train --known``) is cross-c
 grasps instead (:class:`KnownGrasps`): the nearest known grasp (in ``KNOWN_DESCRIPTOR``'s
 features, each scaled by its spread over the known grasps) names the shape too. The shape fit
 assumes our hand's geometry and coupling and reads an unfamiliar hand poorly (58-62% on the
-blind hand of ``docs/independent_hand.md``, so it contradicted a quarter of right answers
-there); the known grasps are that hand. The margin is then calibrated on the training folds
+blind hand of ``docs/independent_hand.md``, where it contradicted 28-39% of right answers);
+the known grasps are that hand. The margin is then calibrated on the training folds
 alone, with the whole ``FALSE_ALARM`` budget.
 """
 
@@ -82,10 +82,11 @@ class KnownGrasps:
                 (np.asarray(x, dtype=float) - mean)[:, keep] / spread[keep])  # fmt: skip
 
     def nearest_of(self, x: np.ndarray) -> np.ndarray:
-        """The shape of the nearest known grasp to each row of ``x`` (the features)."""
+        """The shape of the nearest known grasp to each row of ``x`` (the features); '' (no
+        opinion) for every row where no feature varies among the known grasps."""
         known, rows = self._scaled(x)
-        if len(rows) == 0:
-            return np.array([], dtype=str)
+        if len(rows) == 0 or known.shape[1] == 0:
+            return np.full(len(rows), "", dtype=object).astype(str)
         distance = np.linalg.norm(rows[:, None, :] - known[None, :, :], axis=2)
         return self.labels[np.argmin(distance, axis=1)].astype(str)
 
@@ -100,9 +101,9 @@ class KnownGrasps:
         """Share of known grasps whose nearest *other* known grasp has their shape (None with
         fewer than two grasps of every shape): how far the check can be trusted on this hand."""
         _, counts = np.unique(self.labels, return_counts=True)
-        if len(counts) < 2 or counts.min() < 2:
-            return None
         known, _ = self._scaled(self.features[:0])
+        if len(counts) < 2 or counts.min() < 2 or known.shape[1] == 0:
+            return None
         distance = np.linalg.norm(known[:, None, :] - known[None, :, :], axis=2)
         np.fill_diagonal(distance, np.inf)
         return float(np.mean(self.labels[np.argmin(distance, axis=1)] == self.labels))

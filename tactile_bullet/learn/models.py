@@ -27,7 +27,7 @@ import re
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Protocol, runtime_checkable
+from typing import TYPE_CHECKING, Any, Protocol, runtime_checkable
 
 import numpy as np
 
@@ -52,6 +52,9 @@ maps) and that skops does not trust by default."""
 
 _DIST_METRIC = re.compile(r"^sklearn\.metrics\._dist_metrics\.[A-Za-z]+(32|64)$")
 """Neighbour-index distance metrics (data-only Cython classes)."""
+
+if TYPE_CHECKING:
+    from .doubt import KnownGrasps
 
 _STATE_PREFIX = "state."
 _KNOWN_FEATURES, _KNOWN_LABELS = "known.features", "known.labels"
@@ -81,7 +84,7 @@ class Model:
     classifier_params: dict
     estimator: Any
     info: dict = field(default_factory=dict)
-    known: Any = None
+    known: KnownGrasps | None = None
     """:class:`tactile_bullet.learn.doubt.KnownGrasps` of a model fitted with the user's known
     grasps (``train --known``): they second its answers. Saved as ``known.*`` arrays."""
     software_version: str = __version__

@@ -179,3 +179,21 @@ def test_the_nearest_known_grasp_ignores_features_the_known_grasps_share():
     alike = doubt.KnownGrasps(np.ones((4, 3)), known.labels)
     assert list(alike.nearest_of(query)) == ["", ""] and alike.self_agreement() is None
     assert doubt.answer_doubt(["cone", "torus"], "cone", None, None, "")["ambiguous"] is None
+
+
+def test_a_batch_with_a_quarter_of_its_answers_ambiguous_is_warned_about():
+    """On a hand the model (or its second opinion) does not read, many answers are flagged;
+    ``evaluate`` and ``identify --recording`` then say so in one line, naming the way out."""
+    assert doubt.batch_warning(2, 10) is None and doubt.batch_warning(25, 100) is None
+    assert doubt.batch_warning(5, 9) is None  # too few answers to judge a hand
+    line = doubt.batch_warning(40, 120)
+    assert line.startswith("40 of 120 answers are ambiguous") and "train --known" in line
+    from tactile_bullet.experiments.reports import summary_text
+
+    report = {"accuracy": 0.9, "records": 120, "confusion_matrix": [[60, 0], [12, 48]],
+              "classes": ["cone", "torus"],
+              "ambiguous": {"margin": 0.1, "flagged": 0.33, "wrong_flagged": 0.0,
+                            "right_flagged": 0.36}}  # fmt: skip
+    assert "40 of 120 answers are ambiguous" in summary_text(report)
+    report["ambiguous"]["flagged"] = 0.1
+    assert "answers are ambiguous" not in summary_text(report)

@@ -150,13 +150,19 @@ def identify_recording(args: argparse.Namespace) -> int:
         print(f"grasp {a['index'] + 1} at {a['start_s']:.2f}-{a['end_s']:.2f} s: "
               f"{a['shape']} p={best:.3f}{doubt}{label}")  # fmt: skip
     print(tally_line(doc["tally"]))
+    from ..learn.doubt import batch_warning
+
+    warning = batch_warning(doc["tally"]["ambiguous"], doc["tally"]["grasps"])
+    if warning:
+        print(warning)
     return 0
 
 
 def recording_tally(answers: list[dict]) -> dict:
     """How a recording's grasps were named (docs/json.md ``tally``): ``{"grasps",
-    "shapes": {shape: n}, "labelled", "correct"}``; ``correct`` counts the labelled grasps
-    named as labelled (None when no grasp carries a label)."""
+    "shapes": {shape: n}, "labelled", "correct", "ambiguous"}``; ``correct`` counts the
+    labelled grasps named as labelled (None when no grasp carries a label), ``ambiguous`` the
+    answers flagged (docs/doubt.md)."""
     from collections import Counter
 
     labelled = [a for a in answers if a["label"]]
@@ -165,13 +171,17 @@ def recording_tally(answers: list[dict]) -> dict:
         "shapes": dict(Counter(str(a["shape"]) for a in answers).most_common()),
         "labelled": len(labelled),
         "correct": sum(a["shape"] == a["label"] for a in labelled) if labelled else None,
+        "ambiguous": sum(a.get("ambiguous") is not None for a in answers),
     }
 
 
 def tally_line(tally: dict) -> str:
-    """``5 grasps: cylinder 3, sphere 2; 4 of 5 labelled grasps named as labelled``."""
+    """``5 grasps: cylinder 3, sphere 2; 1 ambiguous; 4 of 5 labelled grasps named as
+    labelled``."""
     shapes = ", ".join(f"{name} {n}" for name, n in tally["shapes"].items()) or "none"
     line = f"{plural(tally['grasps'], 'grasp')}: {shapes}"
+    if tally.get("ambiguous"):
+        line += f"; {tally['ambiguous']} ambiguous"
     if tally["labelled"]:
         line += (f"; {tally['correct']} of {plural(tally['labelled'], 'labelled grasp')} "
                  "named as labelled")  # fmt: skip

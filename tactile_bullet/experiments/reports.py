@@ -249,6 +249,12 @@ def summary_text(report: Mapping[str, Any]) -> str:
             "of right)"
             + ("" if doubt.get("margin") is not None else ": no calibrated margin in this model")
         )
+        from ..learn.doubt import batch_warning
+
+        answers = int(report.get("records") or 0)
+        warning = batch_warning(round(doubt["flagged"] * answers), answers)
+        if warning:
+            lines.append(warning)
     for kind in ("by_size", "by_position", "by_rotation"):
         bins = report.get(kind)
         if bins:

@@ -332,6 +332,26 @@ def answer_doubt(
     return out
 
 
+BATCH_WARNING_SHARE = 0.25
+"""Share of a batch's answers flagged above which the batch is warned about (at least
+``BATCH_WARNING_MIN`` answers): on our own hand's held-out grasps, shifted simulators
+included, 0-17% are flagged (docs/doubt.md); a quarter means the model, or its second
+opinion, does not read this hand."""
+BATCH_WARNING_MIN = 10
+
+
+def batch_warning(flagged: int, answers: int) -> str | None:
+    """One line for a batch of answers (a recording, an evaluation) of which ``flagged`` are
+    ambiguous, when so many are that the hand itself is the doubt; None otherwise."""
+    if answers < BATCH_WARNING_MIN or flagged <= BATCH_WARNING_SHARE * answers:
+        return None
+    return (
+        f"{flagged} of {answers} answers are ambiguous: the model or its second opinion does "
+        "not read this hand; fit them to it with a few known grasps (train --known, "
+        "calibrate; docs/real_hand.md)"
+    )
+
+
 def cross_flags(names, seconds) -> np.ndarray:
     """Which answers the cross-check flags (batched :func:`answer_doubt`'s second rule)."""
     names = np.asarray(names).astype(str)

@@ -187,3 +187,18 @@ def test_finger_points_follow_each_phalanx_through_the_fcis_cumulative_angles():
     row = desc.transform([record])[0]
     assert len(desc.feature_names()) == row.size == 24
     np.testing.assert_allclose(row, finger_points(record.fci_angles()).ravel())
+
+
+def test_finger_points_profile_is_the_fingers_mean_and_each_fingers_deviation():
+    """``profile=true``: the four fingers' mean point (the size) and each finger's deviation
+    from it (the shape), the same information as the plain layout."""
+    records = make_records(per_shape=1, seed=3)
+    plain = plugins.get_descriptor("finger-points").transform(records)
+    desc = plugins.get_descriptor("finger-points", profile=True)
+    split = desc.transform(records)
+    assert split.shape == (len(records), 30) == (len(records), len(desc.feature_names()))
+    mean, deviation = split[:, :6], split[:, 6:].reshape(len(records), 4, 6)
+    np.testing.assert_allclose(deviation.sum(axis=1), 0.0, atol=1e-12)
+    np.testing.assert_allclose((deviation + mean[:, None, :]).reshape(len(records), -1), plain)
+    with pytest.raises(UsageError, match="profile must be true or false"):
+        plugins.get_descriptor("finger-points", profile="yes")

@@ -9,9 +9,10 @@ calibrate`` runs) from 1, 2, 5 and 10 grasps per shape of the pool (labels only;
 poses fitted; ``--known-sizes``: the records' true sizes given, poses fitted), each count drawn
 ``--draws`` times.
 
-``--learned`` adds the other way to fit a method to a hand: a registered descriptor and
-classifier trained on the same chosen grasps alone (what ``tactile-bullet train --data KNOWN``
-does with them), e.g. ``signature:knn:n_neighbors=1`` (one nearest known grasp); with
+``--learned`` adds the other way to fit a method to a hand: a registered descriptor (with
+parameters as ``name@key=value``) and classifier trained on the same chosen grasps alone
+(what ``tactile-bullet train --data KNOWN`` does with them), e.g.
+``signature:knn:n_neighbors=1`` (one nearest known grasp); with
 ``--with-data SIM`` on the simulated grasps of SIM plus the chosen ones (what ``tactile-bullet
 train --data SIM --known KNOWN`` does), and with no chosen grasp at all for reference.
 
@@ -57,13 +58,15 @@ def learned_accuracy(
     ``doubt`` (a dict, filled in): what ``train --known`` makes of the doubt, the margin
     calibrated on held-out folds and the nearest known grasp as second opinion
     (``learn/doubt.py``), as ``evaluate`` reports it: the wrong and right answers flagged."""
+    from transfer_table import descriptor as descriptor_spec  # tools/: name@key=value&...
+
     from tactile_bullet.learn import doubt as doubts
     from tactile_bullet.learn.models import Model
-    from tactile_bullet.plugins import get_classifier, get_descriptor
+    from tactile_bullet.plugins import get_classifier
 
     descriptor, classifier, *params = method.split(":")
     kwargs = {k: int(v) if v.isdigit() else v for k, v in (p.split("=", 1) for p in params)}
-    d = get_descriptor(descriptor)
+    d = descriptor_spec(descriptor)
     cache = {} if cache is None else cache
     if descriptor not in cache:
         x_test = np.asarray(d.transform(test), float)
@@ -80,7 +83,7 @@ def learned_accuracy(
         make = lambda: get_classifier(classifier, **kwargs)  # noqa: E731
         reference = doubts.KnownGrasps.from_records(chosen)
         cal = doubts.with_known_check(doubts.calibrate_margin(make, x, np.array(y)), reference)
-        fitted = Model(descriptor, {}, classifier, kwargs, model, {"doubt": cal}, reference)
+        fitted = Model(d.name, d.params, classifier, kwargs, model, {"doubt": cal}, reference)
         proba = np.asarray(model.predict_proba(x_test), dtype=float)
         found = doubts.evaluation_doubt(fitted, test, truth, names, proba)
         wrong = int(np.sum(names != np.array(truth)))

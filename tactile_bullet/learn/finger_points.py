@@ -19,6 +19,13 @@ from hand to hand about as little as the signature, a quarter to half of their s
 objects where raw joint angles move one to four spreads; unlike the signature, whose lines are
 normalised, they keep the object's size. docs/transfer.md has the accuracies.
 
+``profile=True`` lays the same 24 numbers out as the signature lays out its lines: the mean
+over the four fingers of each point's y and z (6 numbers: how far the hand closed, the
+object's size) and each finger's deviation from that mean (24: the profile across the
+fingers, the shape). It is the same information, but a classifier that scales each feature
+to unit spread then weighs the small differences between fingers (a hyperboloid's waist
+against a cylinder) as much as the large ones between sizes.
+
 ``coupled-finger-points`` does the same on :func:`.coupled.coupled_record` (J2 = J1 = J0 / 2),
 for a hand that publishes only J0 = J1 + J2.
 
@@ -33,6 +40,7 @@ from typing import ClassVar
 
 import numpy as np
 
+from ..errors import UsageError
 from ..hand import KNUCKLE_Z, LONG_FINGERS
 from .coupled import coupled_record
 from .descriptors import check_records
@@ -57,26 +65,40 @@ def finger_points(fci_angles: np.ndarray) -> np.ndarray:
 
 @dataclass(frozen=True)
 class FingerPointsDescriptor:
-    """Phalanx ends (J2, J1, tip; y and z in m) of each long finger: where it wrapped."""
+    """Phalanx ends (J2, J1, tip; y and z in m) of each long finger: where it wrapped
+    (``profile``: as the four fingers' mean and each finger's deviation from it)."""
 
+    profile: bool = False
     name: ClassVar[str] = "finger-points"
+
+    def __post_init__(self) -> None:
+        if not isinstance(self.profile, bool | np.bool_):
+            raise UsageError(f"{self.name} profile must be true or false, got {self.profile!r}")
 
     @property
     def params(self) -> dict:
         return asdict(self)
 
     def feature_names(self) -> list[str]:
-        return [f"{f}_{p}_{axis}" for f in LONG_FINGERS for p in POINTS for axis in "yz"]
+        each = [f"{p}_{axis}" for p in POINTS for axis in "yz"]
+        if self.profile:
+            deviations = [f"{f}_{e}_dev" for f in LONG_FINGERS for e in each]
+            return [f"mean_{e}" for e in each] + deviations
+        return [f"{f}_{e}" for f in LONG_FINGERS for e in each]
 
     def _angles(self, record) -> np.ndarray:
         return record.fci_angles()
 
     def transform(self, records) -> np.ndarray:
         items = check_records(records)
-        out = np.empty((len(items), 4 * len(POINTS) * 2))
+        points = np.empty((len(items), len(LONG_FINGERS), len(POINTS) * 2))
         for row, record in enumerate(items):
-            out[row] = finger_points(self._angles(record)).ravel()
-        return out
+            points[row] = finger_points(self._angles(record)).reshape(len(LONG_FINGERS), -1)
+        flat = len(LONG_FINGERS) * len(POINTS) * 2
+        if not self.profile:
+            return points.reshape(len(items), flat)
+        mean = points.mean(axis=1) if len(items) else points[:, 0]
+        return np.hstack([mean, (points - mean[:, None, :]).reshape(len(items), flat)])
 
 
 @dataclass(frozen=True)

@@ -40,15 +40,17 @@ import xml.etree.ElementTree as ET
 from pathlib import Path
 from typing import NoReturn
 
+sys.path.insert(0, str(Path(__file__).resolve().parent))  # mjcf_tools, also when imported
+from mjcf_tools import check_out, read_mjcf, write_model  # noqa: E402
+from mjcf_tools import fail as _shared_fail  # noqa: E402
+
 LONG = ("FF", "MF", "RF", "LF")
 _OLD = re.compile(r"^(robot0:)?(FF|MF|RF|LF|TH|WR)J(\d)$")
 _OLD_ACTUATOR = re.compile(r"^(robot0:)?A_(FF|MF|RF|LF|TH|WR)J(\d)$")
 
 
 def _fail(message: str) -> NoReturn:
-    """One line on stderr and exit status 2, as the CLI answers bad input."""
-    print(f"gym_hand: {message}", file=sys.stderr)
-    raise SystemExit(2)
+    _shared_fail("gym_hand", message)
 
 
 def renumbered(name: str | None, pattern: re.Pattern = _OLD) -> str | None:
@@ -65,10 +67,7 @@ def renumbered(name: str | None, pattern: re.Pattern = _OLD) -> str | None:
 
 
 def _read(path: Path) -> ET.Element:
-    try:
-        return ET.parse(path).getroot()
-    except (OSError, ET.ParseError) as exc:
-        _fail(f"{path} is not a readable MJCF file: {exc}")
+    return read_mjcf("gym_hand", path).getroot()
 
 
 def convert(source: Path) -> tuple[ET.ElementTree, list[str]]:
@@ -149,11 +148,14 @@ def main() -> None:
     ap.add_argument("--force", action="store_true", help="replace --out if it exists")
     args = ap.parse_args()
     out = Path(args.out)
-    if out.exists() and not args.force:
-        _fail(f"{out} exists: name a new file or pass --force")
+    check_out("gym_hand", out, args.force)
     tree, changes = convert(Path(args.source))
     ET.indent(tree)
-    tree.write(out, encoding="unicode")
+    write_model(tree, out, changes, _check_loads)
+
+
+def _check_loads(out: Path) -> None:
+    """The written model is one ``--hand-model`` reads, or the tool exits 2 saying why."""
     sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
     from tactile_bullet.errors import UsageError
     from tactile_bullet.sim.engines.mujoco_hand import load_hand_spec
@@ -162,9 +164,6 @@ def main() -> None:
         load_hand_spec(out)
     except UsageError as exc:
         _fail(f"the converted model is not one --hand-model reads: {exc}")
-    for line in changes:
-        print(f"  {line}")
-    print(f"wrote {out}")
 
 
 if __name__ == "__main__":

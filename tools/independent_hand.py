@@ -30,6 +30,10 @@ import xml.etree.ElementTree as ET
 from pathlib import Path
 from typing import NoReturn
 
+sys.path.insert(0, str(Path(__file__).resolve().parent))  # mjcf_tools, also when imported
+from mjcf_tools import check_out, read_mjcf, write_model  # noqa: E402
+from mjcf_tools import fail as _shared_fail  # noqa: E402
+
 STAND_INS: dict[str, dict[str, str] | None] = {
     # Shadow's long-finger distal: 26 mm from the J1 axis to the tip, an 17 mm wide pad
     "f_distal_pst": {"type": "capsule", "size": "0.0085 0.008", "pos": "0 0 0.011"},
@@ -41,9 +45,7 @@ STAND_INS: dict[str, dict[str, str] | None] = {
 
 
 def _fail(message: str) -> NoReturn:
-    """One line on stderr and exit status 2, as the CLI answers bad input."""
-    print(f"independent_hand: {message}", file=sys.stderr)
-    raise SystemExit(2)
+    _shared_fail("independent_hand", message)
 
 
 def _is_visual(geom: ET.Element) -> bool:
@@ -54,10 +56,7 @@ def _is_visual(geom: ET.Element) -> bool:
 def collision_copy(source: Path) -> tuple[ET.ElementTree, list[str]]:
     """The model at ``source`` without its visual geoms, missing meshes replaced; and a line
     per change made."""
-    try:
-        tree = ET.parse(source)
-    except (OSError, ET.ParseError) as exc:
-        _fail(f"{source} is not a readable MJCF file: {exc}")
+    tree = read_mjcf("independent_hand", source)
     root = tree.getroot()
     if root.tag != "mujoco":
         _fail(f"{source} is not an MJCF model (its root element is <{root.tag}>, not <mujoco>)")
@@ -107,13 +106,9 @@ def main() -> None:
     ap.add_argument("--force", action="store_true", help="replace --out if it exists")
     args = ap.parse_args()
     out = Path(args.out)
-    if out.exists() and not args.force:
-        _fail(f"{out} exists (--force to replace it)")
+    check_out("independent_hand", out, args.force)
     tree, changes = collision_copy(Path(args.model))
-    tree.write(out, encoding="unicode")
-    for line in changes:
-        print(line)
-    print(f"wrote {out}")
+    write_model(tree, out, changes, None)
 
 
 if __name__ == "__main__":

@@ -82,7 +82,7 @@ def learned_accuracy(
         y = [r.shape for r in [*simulated, *chosen]]
         make = lambda: get_classifier(classifier, **kwargs)  # noqa: E731
         reference = doubts.KnownGrasps.from_records(chosen)
-        cal = doubts.with_known_check(doubts.calibrate_margin(make, x, np.array(y)), reference)
+        cal = doubts.model_doubt(make, x, np.array(y), None, classifier, reference)
         fitted = Model(d.name, d.params, classifier, kwargs, model, {"doubt": cal}, reference)
         proba = np.asarray(model.predict_proba(x_test), dtype=float)
         found = doubts.evaluation_doubt(fitted, test, truth, names, proba)

@@ -144,15 +144,11 @@ def train(
 
         reference = KnownGrasps.from_records(_checked(known, "known"))
     if doubt:
-        from ..learn.doubt import calibrate_margin, with_known_check
+        from ..learn.doubt import model_doubt
 
         # the ambiguity threshold, set on grasps each held out of a fit (learn/doubt.py)
-        info["doubt"] = calibrate_margin(
-            lambda: _estimator(classifier, params), x, y,
-            records=records if reference is None else None, classifier=classifier,
-        )  # fmt: skip
-        if reference is not None:
-            info["doubt"] = with_known_check(info["doubt"], reference)
+        make = lambda: _estimator(classifier, params)  # noqa: E731
+        info["doubt"] = model_doubt(make, x, y, records, classifier, reference)
     return Model(
         descriptor=desc.name,
         descriptor_params=dict(desc.params),

@@ -280,6 +280,18 @@ def calibrate_margin(
     }
 
 
+def model_doubt(
+    make: Callable[[], Any], x: np.ndarray, y: np.ndarray, records: Sequence | None,
+    classifier: str, known: KnownGrasps | None = None,
+) -> dict[str, Any]:  # fmt: skip
+    """A trained model's ``info["doubt"]``: the margin calibrated on held-out folds of its
+    training features ``x``, seconded by the shape fit (read on ``records``) or, for a model
+    fitted with the user's ``known`` grasps, by them (:func:`with_known_check`)."""
+    if known is not None:
+        return with_known_check(calibrate_margin(make, x, y), known)
+    return calibrate_margin(make, x, y, records=records, classifier=classifier)
+
+
 def with_known_check(calibration: dict[str, Any], known: KnownGrasps) -> dict[str, Any]:
     """A margin calibration (made without the shape fit) seconded by the known grasps: the
     model file's ``info["doubt"]`` for ``train --known``."""

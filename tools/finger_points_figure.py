@@ -2,7 +2,8 @@
 
 Draws, for each long finger (one panel each), the object's cross-section in that finger's
 plane and every hand's finger as the chain knuckle - J2 - J1 - tip that ``finger-points``
-reads (``learn/finger_points.py``), with each hand's J3 / J2 / J1 in the legend. It shows what
+reads (``learn/finger_points.py``), with each hand's J3 / J2 / J1 in the legend; prints how far
+apart each pair of hands ended its fingertips. It shows what
 docs/transfer.md measures: hands that divide the bend differently between their joints still
 end their phalanges on the object.
 
@@ -97,6 +98,13 @@ def main() -> None:
     fig.tight_layout()
     fig.savefig(args.out, dpi=90)
     print(f"wrote {args.out}")
+    tips = {name: finger_points(rec.fci_angles())[:, 2] * 1e3 for name, rec in hands.items()}
+    names = list(tips)
+    for i, a in enumerate(names):
+        for b in names[i + 1 :]:
+            apart = np.linalg.norm(tips[a] - tips[b], axis=1)
+            print(f"fingertips {a} vs {b} (ff, mf, rf, lf): "
+                  + ", ".join(f"{d:.1f}" for d in apart) + " mm")  # fmt: skip
 
 
 if __name__ == "__main__":

@@ -280,31 +280,19 @@ def test_welding_the_wrist_keeps_the_models_skip_of_palm_to_finger_contacts(tmp_
     assert ("rh_ffknuckle", "rh_palm") in pairs
 
 
-def test_independent_hand_tool_replaces_missing_meshes_and_drops_visuals(tmp_path, capsys):
-    """tools/independent_hand.py makes a model whose meshes are absent loadable: a missing
+def test_converting_a_menagerie_hand_replaces_missing_meshes_and_drops_visuals(tmp_path):
+    """hand_conversion.collision_copy makes a model whose meshes are absent loadable: a missing
     fingertip mesh becomes a capsule of the pad's size, visual geoms go, the rest is kept."""
     import mujoco
 
     from tactile_bullet.errors import UsageError
     from tactile_bullet.sim.engines.mujoco_hand import load_hand_spec
+    from tactile_bullet.sim.hand_conversion import collision_copy
 
-    spec = importlib.util.spec_from_file_location("ih", REPO / "tools" / "independent_hand.py")
-    tool = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(tool)
-    path = _prefixed_hand(tmp_path, wrist=True)
-    text = path.read_text().replace(
-        "<asset>", '<asset>\n    <mesh file="f_distal_pst.obj"/>\n    <mesh file="palm.obj"/>', 1
-    )
-    pad = '<geom type="capsule" size="0.008 0.012" pos="0 0 0.012" material="skin"/>'
-    assert text.count(pad) == 4
-    text = text.replace(pad, '<geom type="mesh" mesh="f_distal_pst"/>', 1)
-    palm = '<body name="rh_palm" pos="0 0 0.02">'
-    visual = '<geom type="mesh" mesh="palm" contype="0" conaffinity="0"/>'
-    text = text.replace(palm, palm + visual, 1)
-    path.write_text(text)
+    path = _menagerie_style_hand(tmp_path)
     with pytest.raises(UsageError):
         load_hand_spec(path)  # the mesh files are not there
-    tree, changes = tool.collision_copy(path)
+    tree, changes = collision_copy(path)
     out = tmp_path / "copy.xml"
     tree.write(out, encoding="unicode")
     assert changes == ["rh_ffdistal: f_distal_pst -> capsule 0.0085 0.008"]
@@ -316,9 +304,25 @@ def test_independent_hand_tool_replaces_missing_meshes_and_drops_visuals(tmp_pat
     assert model.nmesh == 0
     for bad, why in (("<robot/>", "not an MJCF model"), ("<mujoco", "not a readable MJCF")):
         (tmp_path / "bad.xml").write_text(bad)
-        with pytest.raises(SystemExit) as exit_:
-            tool.collision_copy(tmp_path / "bad.xml")
-        assert exit_.value.code == 2 and why in capsys.readouterr().err
+        with pytest.raises(UsageError, match=why):
+            collision_copy(tmp_path / "bad.xml")
+
+
+def _menagerie_style_hand(tmp_path) -> Path:
+    """The project's MJCF as the Menagerie writes it (``rh_`` names, a forearm with two wrist
+    joints), with a fingertip pad and a visual palm as meshes whose files are absent."""
+    path = _prefixed_hand(tmp_path, wrist=True)
+    text = path.read_text().replace(
+        "<asset>", '<asset>\n    <mesh file="f_distal_pst.obj"/>\n    <mesh file="palm.obj"/>', 1
+    )
+    pad = '<geom type="capsule" size="0.008 0.012" pos="0 0 0.012" material="skin"/>'
+    assert text.count(pad) == 4
+    text = text.replace(pad, '<geom type="mesh" mesh="f_distal_pst"/>', 1)
+    palm = '<body name="rh_palm" pos="0 0 0.02">'
+    visual = '<geom type="mesh" mesh="palm" contype="0" conaffinity="0"/>'
+    text = text.replace(palm, palm + visual, 1)
+    path.write_text(text)
+    return path
 
 
 def test_hand_model_without_a_required_actuator_exits_2_naming_it(tmp_path, capsys):
@@ -457,8 +461,8 @@ def _gym_style_hand(folder: Path) -> Path:
     return folder
 
 
-def test_gym_hand_tool_renumbers_the_joints_and_gives_each_finger_a_j0_servo(tmp_path, capsys):
-    """tools/gym_hand.py turns a hand in gymnasium-robotics' layout and older numbering into
+def test_converting_a_gym_hand_renumbers_the_joints_and_gives_each_finger_a_j0_servo(tmp_path):
+    """hand_conversion.from_gymnasium turns a hand in gymnasium-robotics' layout and older numbering into
     one --hand-model reads: joints one up, the middle-joint servo on a J1 + J2 tendon with its
     own gain, so one J0 target closes both joints of every long finger in a grasp."""
     import mujoco
@@ -466,13 +470,13 @@ def test_gym_hand_tool_renumbers_the_joints_and_gives_each_finger_a_j0_servo(tmp
     from tactile_bullet.sim.engines.mujoco_hand import load_hand_spec
     from tactile_bullet.sim.grasp import simulate_grasp
 
-    spec = importlib.util.spec_from_file_location("gh", REPO / "tools" / "gym_hand.py")
-    tool = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(tool)
+    from tactile_bullet.errors import UsageError
+    from tactile_bullet.sim import hand_conversion as tool
+
     assert tool.renumbered("robot0:FFJ0") == "robot0:FFJ1"
     assert tool.renumbered("robot0:LFJ4") == "robot0:LFJ5"
     assert tool.renumbered("robot0:palm") == "robot0:palm"
-    tree, _ = tool.convert(_gym_style_hand(tmp_path / "hand"))
+    tree, _ = tool.from_gymnasium(_gym_style_hand(tmp_path / "hand"))
     out = tmp_path / "hand.xml"
     tree.write(out, encoding="unicode")
     model = load_hand_spec(out).compile()
@@ -489,6 +493,59 @@ def test_gym_hand_tool_renumbers_the_joints_and_gives_each_finger_a_j0_servo(tmp
     j2, j1 = np.degrees(record.fci_angles()[1:])  # one J0 target moves both joints
     assert np.all(j2 > 5.0) and np.all(j1 > 20.0) and "ff" in record.fingers_in_contact
     for bad in (tmp_path / "nothing", tmp_path):
-        with pytest.raises(SystemExit) as exit_:
-            tool.convert(bad)
-        assert exit_.value.code == 2 and "gym_hand:" in capsys.readouterr().err
+        with pytest.raises(UsageError):
+            tool.from_gymnasium(bad)
+
+
+def test_convert_hand_writes_each_layout_as_its_conversion_and_lists_the_changes(tmp_path, capsys):
+    """``tactile-bullet convert-hand`` writes what the conversion functions make (the
+    Menagerie's copy as parsed, gymnasium-robotics' indented), picks the layout from the source
+    (a file, a folder), and prints each change, or them all as JSON."""
+    import json
+    import xml.etree.ElementTree as ET
+
+    from tactile_bullet.cli import main
+    from tactile_bullet.sim.hand_conversion import collision_copy, from_gymnasium
+
+    menagerie = _menagerie_style_hand(tmp_path)
+    gym = _gym_style_hand(tmp_path / "gym")
+    tree, changes = collision_copy(menagerie)
+    expected = {"menagerie": (menagerie, tree, changes)}
+    tree, changes = from_gymnasium(gym)
+    ET.indent(tree)
+    expected["gymnasium"] = (gym, tree, changes)
+    for layout, (source, tree, changes) in expected.items():
+        want = tmp_path / f"want-{layout}.xml"
+        tree.write(want, encoding="unicode")
+        out = tmp_path / f"{layout}.xml"
+        assert main(["convert-hand", str(source), "--out", str(out)]) == 0
+        printed = capsys.readouterr().out.splitlines()
+        assert printed == [f"  {line}" for line in changes] + [f"wrote {out}"]
+        assert out.read_bytes() == want.read_bytes()
+        assert main(["convert-hand", str(source), "--out", str(out), "--force", "--json",
+                     "--layout", layout]) == 0  # fmt: skip
+        doc = json.loads(capsys.readouterr().out)
+        assert doc["layout"] == layout and doc["changes"] == changes and doc["out"] == str(out)
+        assert out.read_bytes() == want.read_bytes()
+
+
+def test_convert_hand_refuses_bad_input_in_one_line_before_any_work(tmp_path, capsys):
+    menagerie = _menagerie_style_hand(tmp_path)
+    taken = tmp_path / "taken.xml"
+    taken.write_text("keep me")
+    (tmp_path / "robot.xml").write_text("<robot/>")
+    cases = [
+        ([str(tmp_path / "missing.xml")], "does not exist"),
+        ([str(tmp_path / "robot.xml")], "not an MJCF model"),
+        ([str(menagerie), "--out", str(taken)], "already exists; add --force"),
+        ([str(menagerie), "--out", str(tmp_path / "hand.txt")], "must end in .xml"),
+        ([str(tmp_path)], "shared.xml does not exist"),
+        ([str(tmp_path), "--layout", "menagerie"], "is a folder"),
+        ([str(menagerie), "--layout", "gymnasium"], "is not a folder"),
+    ]
+    for argv, why in cases:
+        if "--out" not in argv:
+            argv = [*argv, "--out", str(tmp_path / "new.xml")]
+        err = run_error(capsys, ["convert-hand", *argv])
+        assert why in err and err.startswith("tactile-bullet convert-hand: error:"), err
+    assert taken.read_text() == "keep me" and not (tmp_path / "new.xml").exists()

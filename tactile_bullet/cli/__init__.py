@@ -41,6 +41,7 @@ COMMANDS: tuple[str, ...] = (
     "plugins",
     "import",
     "export",
+    "convert_hand",
 )
 MODULES: dict[str, str] = {"import": "import_"}
 """Commands whose module name differs (``import`` is a Python keyword)."""

@@ -462,16 +462,16 @@ def _gym_style_hand(folder: Path) -> Path:
 
 
 def test_converting_a_gym_hand_renumbers_the_joints_and_gives_each_finger_a_j0_servo(tmp_path):
-    """hand_conversion.from_gymnasium turns a hand in gymnasium-robotics' layout and older numbering into
-    one --hand-model reads: joints one up, the middle-joint servo on a J1 + J2 tendon with its
-    own gain, so one J0 target closes both joints of every long finger in a grasp."""
+    """hand_conversion.from_gymnasium turns a hand in gymnasium-robotics' layout and older
+    numbering into one --hand-model reads: joints one up, the middle-joint servo on a J1 + J2
+    tendon with its own gain, so one J0 target closes both joints of every long finger in a
+    grasp."""
     import mujoco
-
-    from tactile_bullet.sim.engines.mujoco_hand import load_hand_spec
-    from tactile_bullet.sim.grasp import simulate_grasp
 
     from tactile_bullet.errors import UsageError
     from tactile_bullet.sim import hand_conversion as tool
+    from tactile_bullet.sim.engines.mujoco_hand import load_hand_spec
+    from tactile_bullet.sim.grasp import simulate_grasp
 
     assert tool.renumbered("robot0:FFJ0") == "robot0:FFJ1"
     assert tool.renumbered("robot0:LFJ4") == "robot0:LFJ5"

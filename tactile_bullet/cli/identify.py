@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 import math
 
+from ..console import plural
 from ..errors import UsageError
 from .common import (
     add_engine_flag,
@@ -17,7 +18,7 @@ from .common import (
     parse_rotation,
     seed_number,
 )
-from .import_ import add_recording_options, identify_recording
+from .recording_args import add_recording_options, recording_options
 from .shape_info import add_mesh_options, mesh_shape
 
 
@@ -123,3 +124,81 @@ def run(args: argparse.Namespace) -> int:
         for name, p in ranked:
             print(f"  {name:<20} {p:6.3f}")
     return 0
+
+
+def identify_recording(args: argparse.Namespace) -> int:
+    """``identify --recording``: the shape of every grasp in a recording."""
+    import time
+
+    from ..learn.models import load_model
+    from ..realhand.recordings import identify_grasps, read_recording
+
+    if args.param or args.offset != "0,0,0" or args.rotation != "0":
+        raise UsageError(
+            "--param, --offset and --rotation describe a new grasp: not with --recording"
+        )
+    options = recording_options(args)
+    model = load_model(args.model)
+    start = time.perf_counter()
+    grasps = read_recording(args.recording, **options)
+    read_s = time.perf_counter() - start
+    start = time.perf_counter()
+    answers = identify_grasps(model, grasps)
+    doc = {
+        "recording": str(args.recording),
+        "grasps": answers,
+        "shapes": [a["shape"] for a in answers],
+        "read_time_s": read_s,
+        "identify_time_s": time.perf_counter() - start,
+    }
+    doc["tally"] = recording_tally(answers)
+    if len(answers) == 1:  # the one-grasp contract of `identify --json`
+        doc["shape"], doc["probabilities"] = answers[0]["shape"], answers[0]["probabilities"]
+        doc["margin"], doc["ambiguous"] = answers[0]["margin"], answers[0]["ambiguous"]
+    if args.json:
+        emit_json(doc)
+        return 0
+    for a in answers:
+        best = a["probabilities"].get(a["shape"], 1.0)
+        label = f" (labelled {a['label']})" if a["label"] else ""
+        doubt = (f" - AMBIGUOUS: {a['ambiguous'][0]} or {a['ambiguous'][1]}"
+                 if a.get("ambiguous") else "")  # fmt: skip
+        print(f"grasp {a['index'] + 1} at {a['start_s']:.2f}-{a['end_s']:.2f} s: "
+              f"{a['shape']} p={best:.3f}{doubt}{label}")  # fmt: skip
+    print(tally_line(doc["tally"]))
+    from ..learn.doubt import batch_warning
+
+    warning = batch_warning(doc["tally"]["ambiguous"], doc["tally"]["grasps"])
+    if warning:
+        print(warning)
+    return 0
+
+
+def recording_tally(answers: list[dict]) -> dict:
+    """How a recording's grasps were named (docs/json.md ``tally``): ``{"grasps",
+    "shapes": {shape: n}, "labelled", "correct", "ambiguous"}``; ``correct`` counts the
+    labelled grasps named as labelled (None when no grasp carries a label), ``ambiguous`` the
+    answers flagged (docs/doubt.md)."""
+    from collections import Counter
+
+    labelled = [a for a in answers if a["label"]]
+    return {
+        "grasps": len(answers),
+        "shapes": dict(Counter(str(a["shape"]) for a in answers).most_common()),
+        "labelled": len(labelled),
+        "correct": sum(a["shape"] == a["label"] for a in labelled) if labelled else None,
+        "ambiguous": sum(a.get("ambiguous") is not None for a in answers),
+    }
+
+
+def tally_line(tally: dict) -> str:
+    """``5 grasps: cylinder 3, sphere 2; 1 ambiguous; 4 of 5 labelled grasps named as
+    labelled``."""
+    shapes = ", ".join(f"{name} {n}" for name, n in tally["shapes"].items()) or "none"
+    line = f"{plural(tally['grasps'], 'grasp')}: {shapes}"
+    if tally.get("ambiguous"):
+        line += f"; {tally['ambiguous']} ambiguous"
+    if tally["labelled"]:
+        line += (f"; {tally['correct']} of {plural(tally['labelled'], 'labelled grasp')} "
+                 "named as labelled")  # fmt: skip
+    return line

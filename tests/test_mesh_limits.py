@@ -11,7 +11,7 @@ import pytest
 import trimesh
 
 from tactile_bullet.errors import UsageError
-from tactile_bullet.objects import meshes
+from tactile_bullet.objects import mesh_cache, meshes
 
 pytestmark = pytest.mark.usefixtures("private_mesh_cache")
 
@@ -86,7 +86,7 @@ def _rewrite(path, meta_change=None, arrays_change=None, keep_checksum=True):
     if arrays_change:
         arrays.update(arrays_change(arrays))
     if not keep_checksum:
-        meta["checksum"] = meshes._cache_checksum(meta, arrays)
+        meta["checksum"] = mesh_cache._cache_checksum(meta, arrays)
     np.savez(path, meta=np.array(json.dumps(meta)), **arrays)
 
 

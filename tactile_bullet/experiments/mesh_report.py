@@ -8,7 +8,8 @@ import os
 from pathlib import Path
 from typing import Any
 
-from ..objects.meshes import MeshShape, cache_path
+from ..objects.mesh_cache import cache_path
+from ..objects.meshes import MeshShape
 from ..objects.shapes import Shape
 
 

@@ -8,8 +8,9 @@ from pathlib import Path
 from typing import Any
 
 from ..errors import UsageError
+from .mesh_cache import cache_path
 from .mesh_formats import FORMATS
-from .meshes import TRIANGLE_BUDGET, MeshSource, cache_path, check_name, load_source, mesh_source
+from .meshes import TRIANGLE_BUDGET, MeshSource, check_name, load_source, mesh_source
 
 # --- object sets in sweeps -----------------------------------------------------------------
 

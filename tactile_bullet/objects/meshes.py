@@ -27,10 +27,11 @@ much as the section does (the thesis assumes each finger adapts to a circle, sec
 for a circle it is the radius. Concavities and holes inside a section (a mug's inside, a
 handle's eye) do not count: the fingers wrap the outside.
 
-Longer than 600 lines on purpose: one pipeline from a user's file to a :class:`MeshShape`
-(read, merge, simplify, slice into a radius profile, collision surface) and its cache entry,
-which is that pipeline's output under ``PROCESSING_VERSION``. A change to a stage and to the
-cache format belongs in one reviewable diff.
+This module holds the pipeline from a user's file to a :class:`MeshShape` (sources, reading,
+the order of the steps, the size checks); the geometry of each step lives in
+:mod:`~tactile_bullet.objects.mesh_geometry` and the disk cache in
+:mod:`~tactile_bullet.objects.mesh_cache`. A change to a step that changes what it produces
+bumps ``PROCESSING_VERSION``, which keys the cache.
 """
 
 from __future__ import annotations
@@ -48,25 +49,35 @@ from typing import Any
 import numpy as np
 
 from ..errors import UsageError
+from .mesh_cache import CACHE_ARRAYS, CACHE_ENV, cache_dir, cache_path, read_cache, write_cache
 from .mesh_formats import AXES, FORMATS, UNITS
+from .mesh_geometry import (
+    COLLISION_TRIANGLES,
+    CONVEX_HULL_TRIANGLES,
+    PROFILE_SAMPLES,
+    SIMPLIFY_PASSES,
+    SUPPORT_DIRECTIONS,
+    collision_surface,
+    main_axis,
+    merge_vertices,
+    radius_profile,
+    simplify,
+)
 from .shapes import Shape
+
+__all__ = [  # the names users import from here, the two stages' modules' included
+    "CACHE_ARRAYS", "CACHE_ENV", "COLLISION_TRIANGLES", "CONVEX_HULL_TRIANGLES", "CONVEX_RATIO",
+    "MAX_INPUT_TRIANGLES", "MAX_LENGTH", "MAX_RADIUS", "MIN_LENGTH", "MIN_RADIUS",
+    "PROCESSING_VERSION", "PROFILE_SAMPLES", "SIMPLIFY_PASSES", "SUPPORT_DIRECTIONS",
+    "TRIANGLE_BUDGET", "MeshInfo", "MeshShape", "MeshSource", "cache_dir", "cache_path",
+    "check_name", "check_size", "count_triangles", "file_sha256", "forget_loaded", "gltf_buffer",
+    "load_mesh", "load_source", "main_axis", "mesh_source", "radius_profile", "shape_of_record",
+]  # fmt: skip
 
 TRIANGLE_BUDGET = 20_000
 """Triangles kept for the analysis (r(x), axis, watertightness): a 200k-triangle object
 decimated to it keeps its r(x) within 0.05 mm (tools/bench_mesh.py); decimation time grows
 with the input, not the budget."""
-
-COLLISION_TRIANGLES = 1_000
-"""Triangles the hand collides with on a concave object (decimated further from the analysis
-mesh). Bullet's cost per step grows with the triangles under the finger capsules: on a waisted
-200k-triangle solid, 2,000 took 6.6 ms a step, as the hyperboloid primitive's 2,240 do, 1,000
-took 4.7 (the cylinder's hull 3.1), with final joint angles within 0.7 deg of the 2,000's. The
-chord error (edges of ~7 mm on a 12 cm object) is ~0.2 mm, under the 9 mm capsules' reach."""
-
-CONVEX_HULL_TRIANGLES = 1_000
-"""A convex object collides as its hull (exact for it, and Bullet's fastest path, as the
-primitives do), taken around the analysis mesh decimated to this many triangles (~500
-vertices, the primitives' hull size)."""
 
 CONVEX_RATIO = 0.995
 """Volume / convex-hull volume above which a watertight object is treated as convex."""
@@ -77,18 +88,8 @@ peak (a 1.3M-triangle STL: 1.1 GB, 16 s), so this bounds a load to ~1.7 GB. A bi
 count is read from its header and a PLY's or OFF's from theirs, before the file is parsed;
 other formats are counted once parsed. Decimate a larger scan first (e.g. in MeshLab)."""
 
-SIMPLIFY_PASSES = 4
-"""Quadric decimation passes at most: one pass stops short of a large reduction (5M -> 20k
-kept 133k triangles), a second from there reaches the budget."""
-
-PROFILE_SAMPLES = 241
-"""Cross-sections along O-O': 0.5 mm apart on a 12 cm object, 2.5 mm on the longest allowed."""
-
 PROCESSING_VERSION = 3
 """Part of the cache key: bump when processing changes what it produces."""
-
-CACHE_ENV = "TACTILE_BULLET_CACHE"
-"""Overrides the cache folder (default: $XDG_CACHE_HOME/tactile-bullet, ~/.cache/...)."""
 
 MAX_RADIUS = 0.13
 """Largest distance (m) from O-O' allowed: the largest primitive grasped (the torus at its
@@ -369,7 +370,7 @@ def load_source(source: MeshSource) -> MeshShape:
         return (
             replace(shape, name=source.name, source=source) if shape.name != source.name else shape
         )
-    shape = _read_cache(source)
+    shape = _cached(source)
     if shape is None:
         path = Path(source.path)
         if not path.is_file():
@@ -382,9 +383,22 @@ def load_source(source: MeshSource) -> MeshShape:
                 "re-run with the file as it is now"
             )
         shape, arrays = _process(source)
-        _write_cache(source, shape.info, arrays)
+        write_cache(source, shape.info, arrays)
     _MEMORY[source.key] = shape
     return shape
+
+
+def _cached(source: MeshSource) -> MeshShape | None:
+    """The shape from the disk cache, or None where there is no sound entry."""
+    entry = read_cache(source)
+    if entry is None:
+        return None
+    info, arrays = entry
+    try:
+        info = MeshInfo(**{**info, "axis": tuple(info["axis"]), "size": tuple(info["size"])})
+        return _build_shape(source, info, arrays)
+    except Exception:  # noqa: BLE001 - any failure of a cache entry means: process again
+        return None
 
 
 def forget_loaded() -> None:
@@ -413,51 +427,6 @@ def _read_file(source: MeshSource):
     faces = np.asarray(loaded.faces, np.int64)
     if not np.all(np.isfinite(vertices)):
         raise UsageError(f"{path.name} has vertices that are not finite numbers")
-    return vertices, faces
-
-
-def _merge(vertices: np.ndarray, faces: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Merge vertices closer than a millionth of the object's size (an STL's triangle soup
-    becomes a connected surface) and drop faces that collapse. Quantised keys in one int64:
-    several times faster than trimesh's own merge on a 200k-triangle STL."""
-    lo = vertices.min(axis=0)
-    extent = float((vertices.max(axis=0) - lo).max())
-    if extent <= 0:
-        raise UsageError("the mesh is degenerate: all its vertices are one point")
-    q = np.rint((vertices - lo) * ((2**20 - 1) / extent)).astype(np.int64)
-    keys = (q[:, 0] << 42) | (q[:, 1] << 21) | q[:, 2]
-    _, first, inverse = np.unique(keys, return_index=True, return_inverse=True)
-    faces = inverse.reshape(-1)[faces]
-    vertices = vertices[first]
-    a, b, c = (vertices[faces[:, k]] for k in range(3))
-    area2 = np.linalg.norm(np.cross(b - a, c - a), axis=1)
-    faces = faces[area2 > 1e-12 * extent**2]  # merged corners, or collinear ones
-    if len(faces) == 0:
-        raise UsageError("the mesh is degenerate: every triangle has zero area")
-    return vertices, faces
-
-
-def _simplify(vertices, faces, budget: int):
-    """Decimate to at most ``budget`` triangles (a pass stops short of large reductions, so
-    it is repeated from where it stopped; a surface that cannot be reduced is refused)."""
-    import fast_simplification
-
-    for _ in range(SIMPLIFY_PASSES):
-        if len(faces) <= budget:
-            return vertices, faces
-        before = len(faces)
-        v, f = fast_simplification.simplify(
-            np.ascontiguousarray(vertices, float), np.ascontiguousarray(faces, np.int32),
-            target_count=budget,
-        )  # fmt: skip
-        vertices, faces = np.asarray(v, float), np.asarray(f, np.int64)
-        if len(faces) >= before:
-            break
-    if len(faces) > budget * 1.05:  # the library lands a few triangles either side
-        raise UsageError(
-            f"the mesh could not be simplified to {budget:,} triangles ({len(faces):,} remain): "
-            "it is likely many disconnected pieces; merge or decimate it first"
-        )
     return vertices, faces
 
 
@@ -497,8 +466,8 @@ def _process(source: MeshSource) -> MeshShape:
     name = Path(source.path).name
     raw_v, raw_f = _read_file(source)
     triangles_in = len(raw_f)
-    vertices, faces = _merge(raw_v, raw_f)
-    vertices, faces = _simplify(vertices, faces, source.budget)
+    vertices, faces = merge_vertices(raw_v, raw_f)
+    vertices, faces = simplify(vertices, faces, source.budget)
     mesh = trimesh.Trimesh(vertices, faces, process=False)
     mesh.update_faces(mesh.unique_faces())  # duplicates, after decimation: 10x fewer to sort
     mesh.remove_unreferenced_vertices()
@@ -531,7 +500,7 @@ def _process(source: MeshSource) -> MeshShape:
             f"{MIN_RADIUS * 1000:.0f} mm the fingers close on{_unit_hint(source, 'small')}"
         )
     convex = watertight and mesh.volume >= CONVEX_RATIO * mesh.convex_hull.volume
-    collision = _collision_surface(mesh, convex)
+    collision = collision_surface(mesh, convex)
     info = MeshInfo(
         triangles_in=triangles_in,
         triangles=len(mesh.faces),
@@ -554,17 +523,6 @@ def _process(source: MeshSource) -> MeshShape:
         "profile_reach": preach,
     }
     return _build_shape(source, info, arrays), arrays
-
-
-def _collision_surface(mesh, convex: bool):
-    """What Bullet collides with: the convex hull of a coarser copy for a convex object, the
-    surface decimated to COLLISION_TRIANGLES otherwise (both in the object's frame)."""
-    import trimesh
-
-    budget = CONVEX_HULL_TRIANGLES if convex else COLLISION_TRIANGLES
-    v, f = _simplify(np.asarray(mesh.vertices), np.asarray(mesh.faces), budget)
-    coarse = trimesh.Trimesh(v, f, process=False)
-    return coarse.convex_hull if convex else coarse
 
 
 def _unit_hint(source: MeshSource, which: str) -> str:
@@ -595,214 +553,6 @@ def check_size(name: str, size, max_radius: float, source: MeshSource) -> None:
             f"{(MIN_LENGTH - length) * 1000:.1f} mm under the {MIN_LENGTH * 1000:.0f} mm "
             f"limit{_unit_hint(source, 'small')}"
         )
-
-
-def main_axis(mesh, axis: str = "auto") -> tuple[np.ndarray, np.ndarray]:
-    """(R, c): a rotation whose first row is O-O' in the file's frame (R maps file
-    coordinates to the object's: O-O' -> x) and the point O-O' passes through.
-
-    ``auto``: the principal axis of inertia whose moment stands apart from the other two (the
-    symmetry axis of a solid of revolution, long or flat; the long axis of a box); when none
-    does (a sphere), the axis of least inertia. The other two principal axes become z (the
-    larger moment's) and y. The sign puts the object's heavier end toward -x, where the
-    cone's base lies. A named axis maps the file's x, y or z onto O-O' (cyclically), through
-    the centre of mass (of the surface, for an open mesh).
-    """
-    if axis in ("x", "y", "z"):
-        k = "xyz".index(axis)
-        rows = np.roll(np.eye(3), k, axis=1)  # row 0 = the named axis, then cyclic
-        centre = mesh.center_mass if mesh.is_volume else mesh.centroid
-        return rows, np.asarray(centre, float)
-    moments = np.asarray(mesh.principal_inertia_components, float)
-    vectors = np.asarray(mesh.principal_inertia_vectors, float)
-    scale = max(float(moments.max()), 1e-300)
-    apart = np.array(
-        [min(abs(moments[i] - moments[j]) for j in range(3) if j != i) for i in range(3)]
-    )
-    i = int(np.argmax(apart)) if apart.max() > 0.02 * scale else int(np.argmin(moments))
-    rest = [j for j in range(3) if j != i]
-    k_z = max(rest, key=lambda j: moments[j])
-    x_axis = vectors[i] / np.linalg.norm(vectors[i])
-    z_axis = vectors[k_z] - x_axis * (vectors[k_z] @ x_axis)
-    z_axis /= np.linalg.norm(z_axis)
-    centre = np.asarray(mesh.center_mass, float)
-    # heavier end toward -x: the third moment of the volume along the axis
-    along = (np.asarray(mesh.triangles_center) - centre) @ x_axis
-    weights = np.asarray(mesh.area_faces)
-    lo_hi = np.ptp(along) / 2
-    mid = (along.max() + along.min()) / 2
-    if lo_hi > 0 and float(np.sum(weights * (along - mid))) > 0:
-        x_axis, z_axis = -x_axis, z_axis
-    y_axis = np.cross(z_axis, x_axis)
-    return np.vstack([x_axis, y_axis, z_axis]), centre
-
-
-# --- radius profile by slicing -------------------------------------------------------------
-
-
-SUPPORT_DIRECTIONS = 64
-"""Directions around O-O' at which each section's support function is sampled: on a 50 x 70
-mm box section the mean over 64 directions is 0.03 mm under the exact 38.20 mm (256: 0.002 mm,
-at 4x the time; on smooth sections the error is smaller still)."""
-
-
-def radius_profile(mesh, samples: int = PROFILE_SAMPLES):
-    """(x, r, reach) along O-O' (the mesh's x axis), from cross-sections of the surface.
-
-    r(x) is the section's equivalent radius: the perimeter of its convex hull / 2 pi (module
-    docstring), computed as the mean of its support function h(theta) = max over the section
-    of p . u(theta) (Cauchy's formula: the mean half-width), which needs no hull and runs for
-    all sections at once. reach(x) = h(+y): how far it extends toward the palm, for placement.
-    Sections are cut at ``samples`` evenly spaced planes between the object's ends; r is 0 at
-    both ends, as the primitives' profiles are. A section's points are where the mesh's edges
-    cross its plane (vectorised over all edges and planes).
-    """
-    v = np.asarray(mesh.vertices, float)
-    edges = np.asarray(mesh.edges_unique)
-    lo, hi = float(v[:, 0].min()), float(v[:, 0].max())
-    xs = np.linspace(lo, hi, samples)
-    a, b = v[edges[:, 0]], v[edges[:, 1]]
-    swap = a[:, 0] > b[:, 0]
-    a[swap], b[swap] = b[swap], a[swap].copy()
-    # planes crossed by each edge: xs[first..last] within [a.x, b.x]
-    first = np.searchsorted(xs, a[:, 0], side="left")
-    last = np.searchsorted(xs, b[:, 0], side="right") - 1
-    count = np.clip(last - first + 1, 0, None)
-    count[b[:, 0] - a[:, 0] <= 0] = 0  # edges inside a plane: their vertices count below
-    edge_of = np.repeat(np.arange(len(edges)), count)
-    offsets = np.concatenate([[0], np.cumsum(count)[:-1]])
-    plane = first[edge_of] + (np.arange(count.sum()) - np.repeat(offsets, count))
-    ea, eb = a[edge_of], b[edge_of]
-    t = (xs[plane] - ea[:, 0]) / (eb[:, 0] - ea[:, 0])
-    points = ea[:, 1:] + t[:, None] * (eb[:, 1:] - ea[:, 1:])
-    on = np.searchsorted(xs, v[:, 0])  # vertices lying exactly on a plane
-    exact = (on < samples) & (xs[np.clip(on, 0, samples - 1)] == v[:, 0])
-    plane = np.concatenate([plane, on[exact]])
-    points = np.concatenate([points, v[exact][:, 1:]])
-    order = np.argsort(plane, kind="stable")
-    plane, points = plane[order], points[order]
-    theta = np.linspace(0.0, 2 * np.pi, SUPPORT_DIRECTIONS, endpoint=False)
-    u = np.stack([np.cos(theta), np.sin(theta)])  # theta = 0 is +y, toward the palm
-    support = np.full((samples, SUPPORT_DIRECTIONS), -np.inf)
-    bounds = np.searchsorted(plane, np.arange(samples + 1))
-    k = 0
-    while k < samples:  # blocks of whole planes, ~16k points each (n x 64 products)
-        end = max(k + 1, int(np.searchsorted(bounds, bounds[k] + 16384, side="right")) - 1)
-        end = min(end, samples)
-        starts = bounds[k:end]
-        full = starts < bounds[k + 1 : end + 1]  # planes with points
-        if full.any():
-            py, pz = points[bounds[k] : bounds[end]].T
-            block = u[0][:, None] * py + u[1][:, None] * pz  # (directions, points)
-            cuts = starts[full] - bounds[k]  # along contiguous rows: 10x faster
-            support[k:end][full] = np.maximum.reduceat(block, cuts, axis=1).T
-        k = end
-    present = np.isfinite(support[:, 0])
-    radius = np.where(present, support.mean(axis=1, where=present[:, None]), 0.0)
-    reach = np.where(present, support[:, 0], 0.0)
-    # reach also covers the surface between two planes: the vertices in each slab
-    step = max(float(xs[1] - xs[0]), 1e-12)
-    slab = np.clip(np.rint((v[:, 0] - lo) / step).astype(int), 0, samples - 1)
-    np.maximum.at(reach, slab, v[:, 1])
-    radius = np.clip(radius, 0.0, None)
-    radius[0] = radius[-1] = 0.0
-    return xs, radius, reach
-
-
-# --- the disk cache ------------------------------------------------------------------------
-
-
-def cache_dir() -> Path:
-    """$TACTILE_BULLET_CACHE, else $XDG_CACHE_HOME/tactile-bullet, else ~/.cache/tactile-bullet
-    (the ``meshes`` folder inside holds one .npz per processed mesh)."""
-    override = os.environ.get(CACHE_ENV)
-    if override:
-        return Path(override)
-    base = os.environ.get("XDG_CACHE_HOME") or str(Path.home() / ".cache")
-    return Path(base) / "tactile-bullet"
-
-
-def cache_path(source: MeshSource) -> Path:
-    return cache_dir() / "meshes" / f"{source.key}.npz"
-
-
-CACHE_ARRAYS = (
-    "vertices", "faces", "collision_vertices", "collision_faces",
-    "profile_x", "profile_r", "profile_reach",
-)  # fmt: skip
-
-
-def _write_cache(source: MeshSource, info: MeshInfo, arrays: Mapping[str, np.ndarray]) -> None:
-    """Atomic write (temporary file, rename): parallel workers may race, never half-write. A
-    cache that cannot be written costs speed, not results: skipped."""
-    from ..files import atomic_path
-
-    path = cache_path(source)
-    meta = {"source": source.to_dict(), "info": asdict(info)}
-    meta["checksum"] = _cache_checksum(meta, arrays)
-    try:
-        path.parent.mkdir(parents=True, exist_ok=True)
-        with atomic_path(path, "mesh cache") as tmp, open(tmp, "wb") as fh:
-            np.savez(fh, meta=np.array(json.dumps(meta)), **{k: arrays[k] for k in CACHE_ARRAYS})
-    except (OSError, UsageError):
-        pass
-
-
-def _read_cache(source: MeshSource) -> MeshShape | None:
-    """The cached shape, or None if absent or unreadable (then it is processed again and the
-    damaged entry overwritten: a cache is never trusted past a failed check)."""
-    path = cache_path(source)
-    if not path.is_file():
-        return None
-    from ..files import check_npz_members
-
-    try:  # an entry holds a 20k-triangle mesh (~1 MB): anything far larger is not one
-        check_npz_members(path, str(path), lambda n: n == "meta" or n in CACHE_ARRAYS, 64 << 20)
-        with np.load(path, allow_pickle=False) as data:
-            meta = json.loads(str(data["meta"]))
-            arrays = {k: np.asarray(data[k]) for k in data.files if k != "meta"}
-        if meta["source"]["sha256"] != source.sha256 or sorted(arrays) != sorted(CACHE_ARRAYS):
-            return None
-        if meta.get("checksum") != _cache_checksum(meta, arrays):  # tampered or damaged
-            return None
-        info = meta["info"]
-        info = MeshInfo(**{**info, "axis": tuple(info["axis"]), "size": tuple(info["size"])})
-        if not _cache_arrays_sound(arrays, info):
-            return None
-        return _build_shape(source, info, arrays)
-    except Exception:  # noqa: BLE001 - any failure of a cache entry means: process again
-        return None
-
-
-def _cache_checksum(meta: Mapping[str, Any], arrays: Mapping[str, np.ndarray]) -> str:
-    """sha256 over the entry's metadata (less the checksum) and every array's dtype, shape
-    and bytes: an entry edited by hand or damaged on disk no longer matches."""
-    h = hashlib.sha256(json.dumps({k: v for k, v in meta.items() if k != "checksum"},
-                                  sort_keys=True).encode())  # fmt: skip
-    for key in CACHE_ARRAYS:
-        arr = np.ascontiguousarray(arrays[key])
-        h.update(f"{key}:{arr.dtype.str}:{arr.shape}".encode())
-        h.update(arr.tobytes())
-    return h.hexdigest()
-
-
-def _cache_arrays_sound(arrays: Mapping[str, np.ndarray], info: MeshInfo) -> bool:
-    """The shapes and ranges a processed mesh always has (an entry written by an older or
-    broken version may carry a valid checksum and still not be one)."""
-    for prefix in ("", "collision_"):
-        v, f = arrays[f"{prefix}vertices"], arrays[f"{prefix}faces"]
-        if v.ndim != 2 or v.shape[1] != 3 or len(v) < 4 or f.ndim != 2 or f.shape[1] != 3:
-            return False
-        if not info.convex and len(f) == 0:
-            return False
-        if f.size and (f.min() < 0 or f.max() >= len(v)):
-            return False
-    px, pr, reach = arrays["profile_x"], arrays["profile_r"], arrays["profile_reach"]
-    if px.ndim != 1 or len(px) < 2 or pr.shape != px.shape or reach.shape != px.shape:
-        return False
-    if np.any(np.diff(px) <= 0) or np.any(pr < 0):
-        return False
-    return all(np.all(np.isfinite(arrays[k])) for k in CACHE_ARRAYS)
 
 
 # --- records and reports -------------------------------------------------------------------

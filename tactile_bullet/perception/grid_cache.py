@@ -55,7 +55,7 @@ def code_key() -> str:
 
 
 def cache_path(family: str) -> Path:
-    from ..objects.meshes import cache_dir
+    from ..objects.mesh_cache import cache_dir
 
     return cache_dir() / "shape_fit" / f"{family}-{code_key()[:16]}.npz"
 

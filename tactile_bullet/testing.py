@@ -110,7 +110,7 @@ class ComparisonData:
     def score(self, case: Case) -> float:
         """Headline accuracy of the case's method on its protocol."""
         from .experiments.benchmark import level_seed
-        from .experiments.workflow import labels_of
+        from .experiments.training import labels_of
         from .learn.perturb import perturb_all
         from .learn.robust import augment
         from .plugins import get_classifier, get_descriptor

@@ -40,7 +40,7 @@ def add_parser(sub) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from ..experiments.workflow import records_from
+    from ..experiments.training import records_from
     from ..perception.hand_fit import check_inputs, fit_hand
     from ..realhand.hand_calibration import load_sizes, render, write
     from ..realhand.names import hand_prefix

@@ -49,7 +49,7 @@ def name_list(text: str | None, what: str, default) -> list[str]:
 
 
 def run(args: argparse.Namespace) -> int:
-    from ..experiments.workflow import compare
+    from ..experiments.training import compare
     from ..plugins import classifier_names, descriptor_names
 
     descriptors = name_list(args.descriptor, "--descriptor", descriptor_names)

@@ -38,7 +38,7 @@ def run(args: argparse.Namespace) -> int:
         summary_text,
         write_evaluation_report,
     )
-    from ..experiments.workflow import evaluate
+    from ..experiments.training import evaluate
     from ..files import existing_outputs
     from ..learn.models import load_model
 

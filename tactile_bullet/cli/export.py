@@ -43,7 +43,7 @@ def run(args: argparse.Namespace) -> int:
     import time
     from pathlib import Path
 
-    from ..experiments.workflow import records_from
+    from ..experiments.training import records_from
     from ..realhand.export import check_out, export
 
     start = time.perf_counter()

@@ -92,7 +92,7 @@ def _record(args: argparse.Namespace):
 
 
 def run(args: argparse.Namespace) -> int:
-    from ..experiments.workflow import identify
+    from ..experiments.training import identify
     from ..learn.models import load_model
 
     if args.recording:

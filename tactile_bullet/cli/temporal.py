@@ -29,7 +29,7 @@ def add_parser(sub) -> None:
 
 def run(args: argparse.Namespace) -> int:
     from ..experiments.temporal import check_outputs, run_experiment, summary_text
-    from ..experiments.workflow import records_from
+    from ..experiments.training import records_from
 
     check_outputs(args.out, args.force)
     doc = run_experiment(records_from(args.data), args.out, args.force, args.example)

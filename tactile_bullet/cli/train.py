@@ -51,7 +51,7 @@ def add_parser(sub) -> None:
 def run(args: argparse.Namespace) -> int:
     import time
 
-    from ..experiments.workflow import describe_model, train
+    from ..experiments.training import describe_model, train
     from ..learn.models import save_model
     from ..learn.trainings import training_records, with_known
 

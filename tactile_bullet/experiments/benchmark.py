@@ -190,7 +190,7 @@ def run_benchmark(
     from ..learn.robust import augment
     from ..plugins import compatible, get_classifier, get_descriptor
     from .reports import write_json, write_text_atomic
-    from .workflow import labels_of
+    from .training import labels_of
 
     say = log or (lambda _msg: None)
     started = time.perf_counter()

@@ -133,7 +133,7 @@ def svm_scores(records: Sequence, seeds: Sequence[int] = (0, 1, 2), test_fractio
     and the first split's confusion matrices."""
     from ..console import tick
     from .reports import class_order, confusion_matrix
-    from .workflow import labels_of, predict, split, train
+    from .training import labels_of, predict, split, train
 
     scores: dict[str, Any] = {}
     matrices: dict[str, Any] = {}

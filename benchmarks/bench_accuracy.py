@@ -10,22 +10,23 @@ One split of 100 test grasps moves by several points from seed to seed (the size
 drawn differ), so ``--seeds`` repeats the whole protocol on independent splits and reports the
 mean and the range, the figure docs/performance.md quotes:
 
-    python tools/bench_accuracy.py --train-per-shape 40 --test-per-shape 20 --seeds 0,1,2,3,4,5
+    python benchmarks/bench_accuracy.py --train-per-shape 40 --test-per-shape 20 --seeds 0,1,2,3,4,5
 
 ``--classifier``, ``--param`` and ``--descriptor-param`` score another signature model on the
 same splits (the figures in ``learn/descriptors.py`` and ``classifiers/svm.py`` come from these):
 
-    python tools/bench_accuracy.py --seeds 0,1,2,3,4,5 --descriptor-param points=50
-    python tools/bench_accuracy.py --seeds 0,1,2,3,4,5 --param C=10
-    python tools/bench_accuracy.py --seeds 0,1,2,3,4,5 --classifier knn --descriptor-param points=50
+    python benchmarks/bench_accuracy.py --seeds 0,1,2,3,4,5 --descriptor-param points=50
+    python benchmarks/bench_accuracy.py --seeds 0,1,2,3,4,5 --param C=10
+    python benchmarks/bench_accuracy.py --seeds 0,1,2,3,4,5 --classifier knn \\
+        --descriptor-param points=50
 
 ``--descriptor`` scores another descriptor (``signature+contact-normals``, ``time-series`` with
 ``--classifier tcn``). ``--out DIR`` keeps each seed's simulated grasps; a later run with the
 same ``--out`` and ``--reuse`` trains and tests on them instead of simulating again (the same
 grasps, since a seed fixes every draw), which makes comparing models cheap:
 
-    python tools/bench_accuracy.py --seeds 0,1,2,3,4,5 --out splits
-    python tools/bench_accuracy.py --seeds 0,1,2,3,4,5 --out splits --reuse --classifier tcn \
+    python benchmarks/bench_accuracy.py --seeds 0,1,2,3,4,5 --out splits
+    python benchmarks/bench_accuracy.py --seeds 0,1,2,3,4,5 --out splits --reuse --classifier tcn \
         --descriptor time-series
 """
 
@@ -36,6 +37,8 @@ import statistics
 import sys
 import tempfile
 from pathlib import Path
+
+from _report import provenance  # first: this checkout ahead of an installed copy
 
 ACCURACY_TARGET = 0.95
 
@@ -149,6 +152,7 @@ def main() -> int:
         help="descriptor parameter, e.g. points=50",
     )  # fmt: skip
     args = parser.parse_args()
+    provenance()
     try:
         seeds = [int(s) for s in args.seeds.split(",")] if args.seeds else [args.seed]
     except ValueError:

@@ -8,7 +8,7 @@
 Each runs as its own process; the figures are that process's peak RSS (``ru_maxrss`` from
 ``wait4``) and wall time. Run it alone: it writes its inputs in a temporary folder.
 
-    python tools/bench_big_inputs.py [--rows 1000000] [--subdivisions 8 9]
+    python benchmarks/bench_big_inputs.py [--rows 1000000] [--subdivisions 8 9]
 """
 
 from __future__ import annotations
@@ -22,6 +22,7 @@ import time
 from pathlib import Path
 
 import numpy as np
+from _report import provenance  # first: this checkout ahead of an installed copy
 
 
 def write_csv(path: Path, rows: int) -> None:
@@ -63,6 +64,7 @@ def main() -> None:
     parser.add_argument("--rows", type=int, default=1_000_000)
     parser.add_argument("--subdivisions", type=int, nargs="*", default=[8, 9])
     args = parser.parse_args()
+    provenance()
     with tempfile.TemporaryDirectory() as tmp:
         tmp = Path(tmp)
         env = {**os.environ, "TACTILE_BULLET_CACHE": str(tmp / "cache")}

@@ -14,7 +14,7 @@ every training set) and its ``coupling-equal-torque`` / ``coupling-distal-first`
    simulated, as a J0-only hand would be imported (``learn/coupled.j0_only``), and under each
    other coupling rule.
 
-    python tools/bench_coupling.py --data DIR/data [--scale quick] [--descriptors a,b]
+    python benchmarks/bench_coupling.py --data DIR/data [--scale quick] [--descriptors a,b]
 """
 
 from __future__ import annotations
@@ -23,6 +23,7 @@ import argparse
 from pathlib import Path
 
 import numpy as np
+from _report import provenance  # first: this checkout ahead of an installed copy
 
 DESCRIPTORS = ("signature", "coupled-signature", "raw-joints", "coupled-joints",
                "time-series", "coupled-time-series")  # fmt: skip
@@ -87,6 +88,7 @@ def main() -> None:
     parser.add_argument("--descriptors", default=",".join(DESCRIPTORS))
     parser.add_argument("--classifier", default="svm")
     args = parser.parse_args()
+    provenance()
 
     from tactile_bullet.experiments import protocols as P
     from tactile_bullet.experiments.benchmark import load_set

@@ -12,7 +12,7 @@ Prints:
 - the time `verify` takes to check that dataset (every shard's size, sha256 and record count,
   as `generate --resume` does before resuming), in MB/s.
 
-    python tools/bench_generate.py [--grasps 32] [--big 100000]
+    python benchmarks/bench_generate.py [--grasps 32] [--big 100000]
 """
 
 from __future__ import annotations
@@ -27,6 +27,8 @@ import sys
 import tempfile
 import time
 from pathlib import Path
+
+from _report import provenance  # first: this checkout ahead of an installed copy
 
 from tactile_bullet.datasets.dataset import open_dataset, verify
 from tactile_bullet.datasets.executors import run_task
@@ -85,6 +87,7 @@ def main() -> None:
     if args.load:
         load_features(args.load)
         return
+    provenance()
     work = Path(tempfile.mkdtemp(prefix="tb-bench-"))
     try:
         s = sweep(args.grasps)

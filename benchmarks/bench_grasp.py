@@ -14,9 +14,9 @@ For each engine, shape and controller mode, on one core (this process):
 - ratio = grasps/s / ceiling;
 - peak RSS of this process.
 
-    python tools/bench_grasp.py [--repeat 3] [--shapes cone,sphere] [--modes torque]
-    python tools/bench_grasp.py --preshape   # fingers start 5 mm from the object (opt-in)
-    python tools/bench_grasp.py --engine bullet,mujoco   # side by side, with the speed-up
+    python benchmarks/bench_grasp.py [--repeat 3] [--shapes cone,sphere] [--modes torque]
+    python benchmarks/bench_grasp.py --preshape   # fingers start 5 mm from the object (opt-in)
+    python benchmarks/bench_grasp.py --engine bullet,mujoco   # side by side, with the speed-up
 """
 
 from __future__ import annotations
@@ -26,6 +26,7 @@ import resource
 import time
 
 import numpy as np
+from _report import provenance  # first: this checkout ahead of an installed copy
 
 from tactile_bullet.objects.shapes import BUILTIN_SHAPES
 from tactile_bullet.records import ControllerSettings
@@ -88,6 +89,7 @@ def main() -> None:
         help="start the fingers 5 mm from the object (ControllerSettings.preshape)",
     )  # fmt: skip
     args = parser.parse_args()
+    provenance()
     table = {s.name: s for s in BUILTIN_SHAPES}
     engines = args.engine.split(",")
     rows = []

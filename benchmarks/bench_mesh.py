@@ -17,18 +17,20 @@ primitive's grasp), each mesh against the primitive that collides the same way, 
 concave one against the cylinder too. On a shared, loaded machine absolute times swing; the
 ratios come from back-to-back runs.
 
-    python tools/bench_mesh.py [--triangles 200000] [--repeat 2]
+    python benchmarks/bench_mesh.py [--triangles 200000] [--repeat 2]
 """
 
 from __future__ import annotations
 
 import argparse
 import os
+import sys
 import tempfile
 import time
 from pathlib import Path
 
 import numpy as np
+from _report import provenance  # first: this checkout ahead of an installed copy
 
 from tactile_bullet.objects import meshes
 from tactile_bullet.plugins import shape_names
@@ -68,6 +70,7 @@ def main(argv=None) -> int:
     parser.add_argument("--triangles", type=int, default=200_000)
     parser.add_argument("--repeat", type=int, default=2)
     args = parser.parse_args(argv)
+    provenance(None if argv is None else [sys.argv[0], *argv])
     shape_names()  # plugins loaded (and trimesh imported) before any timing
     simulate_grasp("cylinder")  # warm imports and the welded URDF
     primitive = {p: best(lambda p=p: simulate_grasp(p), args.repeat) for _, p in PROFILES.values()}

@@ -17,9 +17,9 @@ answer. The first fresh run warms the cache and is reported apart. Target <= 1.5
 seconds (user + system, of the child process and of the in-process grasp) are reported beside
 wall seconds: on a shared machine they are the figure that does not move with the load.
 
-    python tools/bench_predict.py                  # simulates a small set (about a minute)
-    python tools/bench_predict.py --data DIR       # or reads a dataset
-    python tools/bench_predict.py --overhead-only  # only the CLI start and grasp overhead
+    python benchmarks/bench_predict.py                  # simulates a small set (about a minute)
+    python benchmarks/bench_predict.py --data DIR       # or reads a dataset
+    python benchmarks/bench_predict.py --overhead-only  # only the CLI start and grasp overhead
 """
 
 from __future__ import annotations
@@ -33,6 +33,7 @@ import sys
 import time
 
 import numpy as np
+from _report import provenance  # first: this checkout ahead of an installed copy
 
 LATENCY_TARGET_MS = 5.0
 START_TARGET_S = 1.0
@@ -126,6 +127,7 @@ def main() -> int:
         help="also time this combination (repeatable)",
     )  # fmt: skip
     args = parser.parse_args()
+    provenance()
 
     from threadpoolctl import threadpool_limits
 

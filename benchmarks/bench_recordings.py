@@ -7,7 +7,7 @@ dataset (or ``--model``). Prints per format: export, read and identify times, an
 re-imported grasps get the same answer as the simulated originals. Targets: 100% agreement;
 identify (after reading) under 2 s for 100 grasps.
 
-    python tools/bench_recordings.py --data DIR [--grasps 100]
+    python benchmarks/bench_recordings.py --data DIR [--grasps 100]
 """
 
 from __future__ import annotations
@@ -16,6 +16,8 @@ import argparse
 import tempfile
 import time
 from pathlib import Path
+
+from _report import provenance  # first: this checkout ahead of an installed copy
 
 IDENTIFY_TARGET_S = 2.0
 
@@ -26,6 +28,7 @@ def main() -> None:
     parser.add_argument("--model", help="a trained model (default: train signature + svm)")
     parser.add_argument("--grasps", type=int, default=100)
     args = parser.parse_args()
+    provenance()
 
     from tactile_bullet.experiments import workflow
     from tactile_bullet.learn.models import load_model

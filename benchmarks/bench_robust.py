@@ -9,7 +9,9 @@ Prints the median time (over repeats, after a warm-up) of:
 - ``augment`` per training record (4 perturbed copies, the benchmark's noise-aware training).
 
 Records are synthetic (the wrapping theory, 160 samples: a 2.7 s grasp at 60 Hz), so the
-script needs no simulator. Usage: python tools/bench_robust.py [--repeat 500]
+script needs no simulator.
+
+Usage: python benchmarks/bench_robust.py [--repeat 500]
 """
 
 from __future__ import annotations
@@ -17,13 +19,11 @@ from __future__ import annotations
 import argparse
 import sys
 import time
-from pathlib import Path
 
 import numpy as np
+from _report import REPO, provenance  # first: this checkout ahead of an installed copy
 
-ROOT = Path(__file__).resolve().parent.parent
-sys.path.insert(0, str(ROOT))
-sys.path.insert(0, str(ROOT / "tests"))
+sys.path.insert(0, str(REPO / "tests"))  # tests/synthetic.py: records without a simulator
 
 from synthetic import make_records  # noqa: E402
 
@@ -49,6 +49,7 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--repeat", type=int, default=500)
     args = ap.parse_args()
+    provenance()
     from synthetic import make_record
 
     records = make_records(per_shape=4, seed=0)

@@ -8,27 +8,24 @@ Prints the median time (over repeats, after a warm-up) of:
   the absolute angles), on model angles of random sizes and offsets with 0.02 rad noise, and
   its time as a multiple of signature + DTW identification (the ratio holds under load);
 
-Usage: python tools/bench_signature.py [--repeat 2000]
+Usage: python benchmarks/bench_signature.py [--repeat 2000]
 """
 
 from __future__ import annotations
 
 import argparse
-import sys
 import time
-from pathlib import Path
 
 import numpy as np
+from _report import provenance  # first: this checkout ahead of an installed copy
 
-sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
-
-from tactile_bullet.perception.patterns import (  # noqa: E402
+from tactile_bullet.perception.patterns import (
     default_library,
     dtw_distance,
     identify,
     size_matched_library,
 )
-from tactile_bullet.perception.signature import signature_from_angles  # noqa: E402
+from tactile_bullet.perception.signature import signature_from_angles
 
 
 def per_call(fn, args_list, repeat: int) -> float:
@@ -48,6 +45,7 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--repeat", type=int, default=2000)
     args = ap.parse_args()
+    provenance()
     rng = np.random.default_rng(0)
     angles = [(rng.uniform(0.1, 1.4, (3, 4)),) for _ in range(64)]
     sigs = [signature_from_angles(a) for (a,) in angles]

@@ -8,7 +8,7 @@ timed every ``--result-every`` messages (each call after a new message, so never
 answer) and once per grasp when it is over. Targets: update <= 0.1 ms, result <= 5 ms
 (medians). Also checks that the streamed answer equals ``identify`` on the whole record.
 
-    python tools/bench_streaming.py --data DIR [--grasps 20] [--threads 1]
+    python benchmarks/bench_streaming.py --data DIR [--grasps 20] [--threads 1]
 """
 
 from __future__ import annotations
@@ -17,6 +17,7 @@ import argparse
 import time
 
 import numpy as np
+from _report import provenance  # first: this checkout ahead of an installed copy
 
 UPDATE_TARGET_MS = 0.1
 RESULT_TARGET_MS = 5.0
@@ -32,6 +33,7 @@ def main() -> None:
     parser.add_argument("--result-every", type=int, default=10, help="messages between results")
     parser.add_argument("--threads", type=int, default=0, help="BLAS/OpenMP threads (0: default)")
     args = parser.parse_args()
+    provenance()
 
     from tactile_bullet import Identifier
     from tactile_bullet.experiments import workflow

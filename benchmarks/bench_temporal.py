@@ -7,9 +7,9 @@ grasps changed at all, and the largest change of a final FCI angle on a finger i
 training; ``workflow.demo``'s draws, first round) with both controllers and prints both
 accuracies. Also times the dynamic detector fed row by row (the controller's hot path).
 
-    python tools/bench_temporal.py --preset thesis --grasps 60
-    python tools/bench_temporal.py --preset temporal --grasps 60
-    python tools/bench_temporal.py --preset thesis --grasps 0 --demo --workers 2
+    python benchmarks/bench_temporal.py --preset thesis --grasps 60
+    python benchmarks/bench_temporal.py --preset temporal --grasps 60
+    python benchmarks/bench_temporal.py --preset thesis --grasps 0 --demo --workers 2
 
 Steps are deterministic; wall times on a shared machine are not (ratios only).
 """
@@ -17,19 +17,15 @@ Steps are deterministic; wall times on a shared machine are not (ratios only).
 from __future__ import annotations
 
 import argparse
-import sys
 import time
 from dataclasses import replace
 from multiprocessing import Pool
-from pathlib import Path
 
 import numpy as np
+from _report import provenance  # first: this checkout ahead of an installed copy
 
-ROOT = Path(__file__).resolve().parent.parent
-sys.path.insert(0, str(ROOT))
-
-from tactile_bullet.hand import LONG_FINGERS  # noqa: E402
-from tactile_bullet.records import ControllerSettings, Pose  # noqa: E402
+from tactile_bullet.hand import LONG_FINGERS
+from tactile_bullet.records import ControllerSettings, Pose
 
 
 def pair(job: tuple):
@@ -140,6 +136,7 @@ def main() -> None:
     ap.add_argument("--seed", type=int, default=0, help="demo draws")
     ap.add_argument("--workers", type=int, default=1)
     args = ap.parse_args()
+    provenance()
 
     print(f"dynamic detector: {detector_speed():.1f} us per row of G")
     jobs = preset_jobs(args.preset, args.grasps)

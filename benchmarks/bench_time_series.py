@@ -17,9 +17,9 @@ sigma per sample, and its efforts Gaussian noise of 0.02 N m; seeded. A simple s
 the benchmark's perturbation model: treat its figures as preliminary.
 
     tactile-bullet generate --preset thesis --out thesis-data --workers 2
-    python tools/bench_time_series.py --data thesis-data                  # default pairs
-    python tools/bench_time_series.py --data DIR --pair time-series:tcn --pair signature:svm
-    python tools/bench_time_series.py --data DIR --noise                  # + noise table
+    python benchmarks/bench_time_series.py --data thesis-data                  # default pairs
+    python benchmarks/bench_time_series.py --data DIR --pair time-series:tcn --pair signature:svm
+    python benchmarks/bench_time_series.py --data DIR --noise                  # + noise table
 """
 
 from __future__ import annotations
@@ -30,6 +30,7 @@ import sys
 import time
 
 import numpy as np
+from _report import provenance  # first: this checkout ahead of an installed copy
 
 DEFAULT_PAIRS = (
     "signature:svm",
@@ -96,6 +97,7 @@ def main() -> int:
     parser.add_argument("--noise", action="store_true", help="also score noisy test records")
     parser.add_argument("--seed", type=int, default=0, help="seed of the noise")
     args = parser.parse_args()
+    provenance()
 
     from tactile_bullet.experiments import workflow
 

@@ -9,32 +9,29 @@ its mean by where the pad meets the section (the sideways fraction, 0 in the fin
 depends on the family or on the contact's place, not on the finger, is one the linear
 correction cannot take up (docs/calibration.md, "Why MuJoCo stays under 97%").
 
-With ``--oracle`` it also splits each shape's grasps as ``tools/hand_calibration.py`` does
+With ``--oracle`` it also splits each shape's grasps as ``benchmarks/hand_calibration.py`` does
 (first half: pool, rest: test), regresses the coefficients on the pool at the true sizes and
 poses, and prints the test accuracy of one set of coefficients, of those plus a J3 and J0
 offset per family (each family's mean residual on the pool), and of those with each angle's
 sigma set to the pool's within-family residual spread: what per-family terms can give where
 the sizes are known (~1 min).
 
-Usage: python tools/calibration_residuals.py --data DIR [--oracle]   (DIR e.g.
-tools/other_hand_sets.py's)
+Usage: python benchmarks/calibration_residuals.py --data DIR [--oracle]   (DIR e.g.
+benchmarks/other_hand_sets.py's)
 """
 
 from __future__ import annotations
 
 import argparse
 import sys
-from pathlib import Path
 
 import numpy as np
+from _report import provenance  # first: this checkout ahead of an installed copy
 
-ROOT = Path(__file__).resolve().parent.parent
-sys.path.insert(0, str(ROOT))
-
-from tactile_bullet.experiments.workflow import records_from  # noqa: E402
-from tactile_bullet.hand import FINGER_X, LONG_FINGERS  # noqa: E402
-from tactile_bullet.perception.shape_fit import _TABLE, measured_features  # noqa: E402
-from tactile_bullet.perception.shape_model import Calibration, geometric_features  # noqa: E402
+from tactile_bullet.experiments.workflow import records_from
+from tactile_bullet.hand import FINGER_X, LONG_FINGERS
+from tactile_bullet.perception.shape_fit import _TABLE, measured_features
+from tactile_bullet.perception.shape_model import Calibration, geometric_features
 
 SLOPES = (0.0, 0.2, 0.5, 1.0, 2.0, np.inf)
 
@@ -96,6 +93,7 @@ def main() -> None:
     ap.add_argument("--data", required=True)
     ap.add_argument("--oracle", action="store_true")
     args = ap.parse_args()
+    provenance()
     records = [r for r in records_from(args.data)
                if "no_contact" not in r.flags and r.shape in _TABLE]  # fmt: skip
     if not records:

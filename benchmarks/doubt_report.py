@@ -11,10 +11,10 @@ Usage::
     tactile-bullet benchmark --protocol in-distribution,sim-shift \\
         --descriptor signature,raw-joints,robust-joints --classifier svm,knn,shape-fit \\
         --training clean --out bench-doubt
-    python tools/doubt_report.py bench-doubt/benchmark.json
+    python benchmarks/doubt_report.py bench-doubt/benchmark.json
 
     tactile-bullet benchmark --protocol cross-engine --training clean,randomized --out bench-x
-    python tools/doubt_report.py bench-x/benchmark.json
+    python benchmarks/doubt_report.py bench-x/benchmark.json
 """
 
 from __future__ import annotations
@@ -22,6 +22,8 @@ from __future__ import annotations
 import argparse
 import json
 from collections import defaultdict
+
+from _report import provenance  # first: this checkout ahead of an installed copy
 
 GROUPS = {"in-Bullet": ("in-distribution", None), "shifted": ("sim-shift", "none"),
           "cross-eng": ("cross-engine", None)}  # fmt: skip
@@ -58,6 +60,7 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("benchmark_json")
     args = ap.parse_args()
+    provenance()
     with open(args.benchmark_json) as fh:
         rows = json.load(fh)["rows"]
     table = pooled(rows)

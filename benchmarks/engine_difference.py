@@ -5,7 +5,7 @@ The grasps are the demo's test recipe (sizes between the training ones, offsets 
 drawn once with a fixed seed and simulated on each engine; a grasp refused or without contact
 on either engine is left out of both.
 
-    python tools/engine_difference.py [--per-shape 20] [--mode torque] [--seed 0]
+    python benchmarks/engine_difference.py [--per-shape 20] [--mode torque] [--seed 0]
 """
 
 from __future__ import annotations
@@ -15,6 +15,7 @@ import math
 from dataclasses import replace
 
 import numpy as np
+from _report import provenance  # first: this checkout ahead of an installed copy
 
 from tactile_bullet.datasets.bulk import simulate_many
 from tactile_bullet.experiments.workflow import (
@@ -34,6 +35,7 @@ def main() -> None:
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--engines", default="bullet,mujoco")
     args = parser.parse_args()
+    provenance()
     a, b = args.engines.split(",")
     rng = np.random.default_rng(args.seed)
     specs = [s for shape in DEMO_SHAPES

@@ -8,10 +8,10 @@ docs/transfer.md measures: hands that divide the bend differently between their 
 end their phalanges on the object.
 
 The object is the ``--index``-th grasp of ``--shape`` in the first of ``--data`` (sets of the
-same objects, e.g. ``tools/other_hand_sets.py --hand independent`` with two hand models);
+same objects, e.g. ``benchmarks/other_hand_sets.py --hand independent`` with two hand models);
 ``--ours ENGINE`` grasps it again with our hand (``--servo-stiffness`` as in ``grasp``).
 
-    python tools/finger_points_figure.py --data gym-sim,ind-sim --ours mujoco --shape sphere \\
+    python benchmarks/finger_points_figure.py --data gym-sim,ind-sim --ours mujoco --shape sphere \\
         --out docs/img/finger_points_sphere.png
 """
 
@@ -22,6 +22,7 @@ import math
 from pathlib import Path
 
 import numpy as np
+from _report import provenance  # first: this checkout ahead of an installed copy
 
 from tactile_bullet.datasets.bulk import GraspSpec, simulate_many
 from tactile_bullet.experiments.workflow import records_from
@@ -55,6 +56,7 @@ def main() -> None:
     ap.add_argument("--index", type=int, default=0, help="which grasp of --shape")
     ap.add_argument("--out", required=True)
     args = ap.parse_args()
+    provenance()
     import matplotlib
 
     matplotlib.use("Agg")

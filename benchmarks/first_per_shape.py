@@ -6,7 +6,7 @@ grasps of each shape that touched their object (in the dataset's order) to a new
 ``--skip K`` passes over each shape's first K such grasps first (the test grasps that follow a
 calibration pool).
 
-Usage: python tools/first_per_shape.py DATA --per-shape 10 --out KNOWN [--skip 0]
+Usage: python benchmarks/first_per_shape.py DATA --per-shape 10 --out KNOWN [--skip 0]
 """
 
 from __future__ import annotations
@@ -15,11 +15,10 @@ import argparse
 import sys
 from pathlib import Path
 
-ROOT = Path(__file__).resolve().parent.parent
-sys.path.insert(0, str(ROOT))
+from _report import provenance  # first: this checkout ahead of an installed copy
 
-from tactile_bullet.datasets.bulk import save_records  # noqa: E402
-from tactile_bullet.experiments.workflow import records_from  # noqa: E402
+from tactile_bullet.datasets.bulk import save_records
+from tactile_bullet.experiments.workflow import records_from
 
 
 def main() -> None:
@@ -29,6 +28,7 @@ def main() -> None:
     ap.add_argument("--out", required=True)
     ap.add_argument("--skip", type=int, default=0, help="each shape's first grasps passed over")
     args = ap.parse_args()
+    provenance()
     if args.per_shape < 1 or args.skip < 0:
         sys.exit("--per-shape must be at least 1 and --skip at least 0")
     out = Path(args.out)

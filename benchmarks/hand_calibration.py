@@ -19,7 +19,8 @@ train --data SIM --known KNOWN`` does), and with no chosen grasp at all for refe
 ``--doubt``: also how many of those answers are flagged ``ambiguous`` as a ``train --known``
 model flags them (the margin, and the nearest known grasp as second opinion; docs/doubt.md).
 
-Usage: python tools/hand_calibration.py --data DIR [--draws 2] [--counts 1,2,5,10] [--known-sizes]
+Usage: python benchmarks/hand_calibration.py --data DIR [--draws 2] [--counts 1,2,5,10]
+       [--known-sizes]
        [--learned signature:knn:n_neighbors=1,coupled-joints:knn:n_neighbors=1] [--with-data SIM]
        [--skip-shape-fit] [--doubt]
 """
@@ -27,19 +28,15 @@ Usage: python tools/hand_calibration.py --data DIR [--draws 2] [--counts 1,2,5,1
 from __future__ import annotations
 
 import argparse
-import sys
 import time
-from pathlib import Path
 
 import numpy as np
+from _report import provenance  # first: this checkout ahead of an installed copy
 
-ROOT = Path(__file__).resolve().parent.parent
-sys.path.insert(0, str(ROOT))
-
-from tactile_bullet.experiments.workflow import records_from  # noqa: E402
-from tactile_bullet.perception.hand_fit import fit_hand  # noqa: E402
-from tactile_bullet.perception.shape_fit import fit_shape, fitted_shapes  # noqa: E402
-from tactile_bullet.perception.shape_model import Calibration, load_calibration  # noqa: E402
+from tactile_bullet.experiments.workflow import records_from
+from tactile_bullet.perception.hand_fit import fit_hand
+from tactile_bullet.perception.shape_fit import fit_shape, fitted_shapes
+from tactile_bullet.perception.shape_model import Calibration, load_calibration
 
 
 def accuracy(records, families, cal) -> float:
@@ -58,7 +55,7 @@ def learned_accuracy(
     ``doubt`` (a dict, filled in): what ``train --known`` makes of the doubt, the margin
     calibrated on held-out folds and the nearest known grasp as second opinion
     (``learn/doubt.py``), as ``evaluate`` reports it: the wrong and right answers flagged."""
-    from transfer_table import descriptor as descriptor_spec  # tools/: name@key=value&...
+    from transfer_table import descriptor as descriptor_spec  # benchmarks/: name@key=value&...
 
     from tactile_bullet.learn import doubt as doubts
     from tactile_bullet.learn.models import Model
@@ -106,6 +103,7 @@ def main() -> None:
     ap.add_argument("--skip-shape-fit", action="store_true", help="score --learned only")
     ap.add_argument("--doubt", action="store_true", help="also --learned's answers flagged")
     args = ap.parse_args()
+    provenance()
     simulated = []
     if args.with_data:
         simulated = [r for r in records_from(args.with_data) if "no_contact" not in r.flags]

@@ -1,6 +1,6 @@
 """Which descriptors survive a change of hand: the same objects grasped by two hands.
 
-Reads a simulated set made by one hand (e.g. ``tools/other_hand_sets.py --hand independent``
+Reads a simulated set made by one hand (e.g. ``benchmarks/other_hand_sets.py --hand independent``
 with a hand written by others) and grasps every one of its objects again, same shape, sizes,
 pose and seed, with our own hand on ``--engine``; or, with ``--other``, reads a second set of
 the same objects (matched by shape and seed). For each descriptor it prints how far the
@@ -11,8 +11,8 @@ features. Under ~0.3 the descriptor reads the other hand's grasp of an object mu
 near 1 the change is as large as the difference between objects (docs/transfer.md's table
 across tendon rules is the same measure).
 
-    python tools/hand_difference.py --data HAND-SET --engine mujoco [--servo-stiffness 1]
-    python tools/hand_difference.py --data HAND-SET --other OTHER-SET
+    python benchmarks/hand_difference.py --data HAND-SET --engine mujoco [--servo-stiffness 1]
+    python benchmarks/hand_difference.py --data HAND-SET --other OTHER-SET
 """
 
 from __future__ import annotations
@@ -20,6 +20,7 @@ from __future__ import annotations
 import argparse
 
 import numpy as np
+from _report import provenance  # first: this checkout ahead of an installed copy
 
 from tactile_bullet.datasets.bulk import GraspSpec, simulate_many
 from tactile_bullet.experiments.workflow import records_from
@@ -61,6 +62,7 @@ def main() -> None:
     ap.add_argument("--workers", type=int, default=2)
     ap.add_argument("--descriptors", default=",".join(DESCRIPTORS))
     args = ap.parse_args()
+    provenance()
     theirs = [r for r in records_from(args.data) if "no_contact" not in r.flags]
     mine = records_from(args.other) if args.other else ours(
         theirs, args.engine, args.workers, args.servo_stiffness

@@ -2,10 +2,12 @@
 exact surface: the torus (sectors around O-O') and the hyperboloid (slabs along it), at the
 default size and at both ends of every size range.
 
-    python tools/object_overfill.py
+    python benchmarks/object_overfill.py
 """
 
 from __future__ import annotations
+
+from _report import provenance  # first: this checkout ahead of an installed copy
 
 from tactile_bullet.objects.shapes import BUILTIN_SHAPES
 from tactile_bullet.sim.engines.mujoco_objects import (
@@ -17,6 +19,7 @@ from tactile_bullet.sim.engines.mujoco_objects import (
 
 
 def main() -> None:
+    provenance()
     table = {s.name: s for s in BUILTIN_SHAPES}
     print(f"{'shape':<12}{'size':<10}{'pieces':>7}{'max mm':>8}{'mean mm':>9}")
     for name in ("torus", "hyperboloid"):

@@ -1,4 +1,4 @@
-"""Grasp sets made by "other hands", for ``tools/hand_calibration.py`` (issue 21 item 3).
+"""Grasp sets made by "other hands", for ``benchmarks/hand_calibration.py`` (issue 21 item 3).
 
 Each set holds ``--per-shape`` grasps of each of the five thesis shapes at sizes drawn from
 fractions 0.1-0.9 of their ranges and at the demo's train and test offsets, made by one hand
@@ -9,11 +9,11 @@ that is not the one the shape fit's shipped coefficients were fitted on:
   phalanges +2%), the distal-first tendon rule, sensors reading J3 +3 deg and J2 -1 deg;
 - ``shifted-equal``: Bullet at -20%, the equal-torque tendon rule, J3 -2 deg and J2 -1 deg;
 - ``independent``: the MuJoCo engine driving the hand model named by ``--hand-model`` (the
-  Menagerie's independently written Shadow hand, ``tools/independent_hand.py``), default
+  Menagerie's independently written Shadow hand, ``tactile-bullet convert-hand``), default
   physics otherwise.
 
-Usage: python tools/other_hand_sets.py --hand mujoco --out DIR [--per-shape 24] [--workers 2]
-       python tools/other_hand_sets.py --hand independent --hand-model HAND.xml --out DIR
+Usage: python benchmarks/other_hand_sets.py --hand mujoco --out DIR [--per-shape 24] [--workers 2]
+       python benchmarks/other_hand_sets.py --hand independent --hand-model HAND.xml --out DIR
 (about a minute per 120 grasps on two free cores).
 """
 
@@ -26,19 +26,17 @@ from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
+from _report import provenance  # first: this checkout ahead of an installed copy
 
-ROOT = Path(__file__).resolve().parent.parent
-sys.path.insert(0, str(ROOT))
-
-from tactile_bullet.datasets.bulk import save_records, simulate_many  # noqa: E402
-from tactile_bullet.experiments.protocols import shifted  # noqa: E402
-from tactile_bullet.experiments.workflow import (  # noqa: E402
+from tactile_bullet.datasets.bulk import save_records, simulate_many
+from tactile_bullet.experiments.protocols import shifted
+from tactile_bullet.experiments.workflow import (
     DEMO_SHAPES,
     TEST_OFFSETS,
     TRAIN_OFFSETS,
     draw_specs,
 )
-from tactile_bullet.records import ControllerSettings  # noqa: E402
+from tactile_bullet.records import ControllerSettings
 
 FRACTIONS = (0.1, 0.3, 0.5, 0.7, 0.9)
 
@@ -66,6 +64,7 @@ def main() -> None:
     ap.add_argument("--workers", type=int, default=2)
     ap.add_argument("--hand-model", help="the MJCF hand of --hand independent")
     args = ap.parse_args()
+    provenance()
     seed, ctl = HANDS[args.hand]
     if (args.hand == "independent") != bool(args.hand_model):
         sys.exit("--hand-model goes with --hand independent, and it needs one")

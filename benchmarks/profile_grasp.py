@@ -4,14 +4,16 @@ controller's Python, reads and writes of the engine's state, scene build, record
 Each engine's ``step`` is wrapped with a CPU-time counter for the run; the shapes are grasped
 once to warm the caches (compiled models), then ``--repeat`` times.
 
-    python tools/profile_grasp.py --engine mujoco --mode torque
-    python tools/profile_grasp.py --engine bullet,mujoco --mode contact --repeat 5
+    python benchmarks/profile_grasp.py --engine mujoco --mode torque
+    python benchmarks/profile_grasp.py --engine bullet,mujoco --mode contact --repeat 5
 """
 
 from __future__ import annotations
 
 import argparse
 import time
+
+from _report import provenance  # first: this checkout ahead of an installed copy
 
 from tactile_bullet.objects.shapes import BUILTIN_SHAPES
 from tactile_bullet.records import ControllerSettings
@@ -64,6 +66,7 @@ def main() -> None:
     parser.add_argument("--shapes", default=THESIS_SHAPES)
     parser.add_argument("--repeat", type=int, default=3)
     args = parser.parse_args()
+    provenance()
     table = {s.name: s for s in BUILTIN_SHAPES}
     shapes = [table[name] for name in args.shapes.split(",")]
     for engine in args.engine.split(","):

@@ -14,21 +14,17 @@ each way to read the rotation from the grasp alone:
 The calibration (``data/rotation_calibration.json``, ``tools/rotation_calibration.py``) is fitted
 on sizes at 0, 25 and 50% of each range, never on the default sizes measured here.
 
-Usage: python tools/rotation_end_to_end.py [--workers 2] [--sizes default,0.25]  (~30 s a size)
+Usage: python benchmarks/rotation_end_to_end.py [--workers 2] [--sizes default,0.25]  (~30 s a size)
 """
 
 from __future__ import annotations
 
 import argparse
-import sys
 import time
 from multiprocessing import Pool
-from pathlib import Path
 
 import numpy as np
-
-ROOT = Path(__file__).resolve().parent.parent
-sys.path.insert(0, str(ROOT))
+from _report import provenance  # first: this checkout ahead of an installed copy
 
 SHAPES = ("torus", "hyperboloid", "cylinder")
 ROTATIONS_DEG = tuple(range(0, 30, 5))
@@ -74,6 +70,7 @@ def main() -> None:
     ap.add_argument("--workers", type=int, default=2)
     ap.add_argument("--sizes", default="default", help="'default' and/or relative sizes")
     args = ap.parse_args()
+    provenance()
     sizes = [s.strip() for s in args.sizes.split(",") if s.strip()]
     jobs = [(n, s, d) for s in sizes for n in SHAPES for d in ROTATIONS_DEG]
     start = time.perf_counter()

@@ -11,7 +11,7 @@ writes them under ``bench/data``) and prints, for in-distribution / unseen-sizes
    re-posed (offsets within +-10 mm, rotation within +-25 deg), or re-posed only, the grasp's
    residual from its own fit added back and J1 + J2 split as the grasp split it.
 
-Usage: python tools/signature_limits.py --cache bench/data [--copies 6] [--seed 0]
+Usage: python benchmarks/signature_limits.py --cache bench/data [--copies 6] [--seed 0]
 """
 
 from __future__ import annotations
@@ -23,16 +23,14 @@ from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
+from _report import provenance  # first: this checkout ahead of an installed copy
 
-ROOT = Path(__file__).resolve().parent.parent
-sys.path.insert(0, str(ROOT))
-
-from tactile_bullet.experiments.benchmark import load_set  # noqa: E402
-from tactile_bullet.experiments.workflow import labels_of  # noqa: E402
-from tactile_bullet.hand import LONG_FINGERS  # noqa: E402
-from tactile_bullet.perception import shape_fit as sf  # noqa: E402
-from tactile_bullet.plugins import get_classifier, get_descriptor  # noqa: E402
-from tactile_bullet.records import FCI_JOINTS  # noqa: E402
+from tactile_bullet.experiments.benchmark import load_set
+from tactile_bullet.experiments.workflow import labels_of
+from tactile_bullet.hand import LONG_FINGERS
+from tactile_bullet.perception import shape_fit as sf
+from tactile_bullet.plugins import get_classifier, get_descriptor
+from tactile_bullet.records import FCI_JOINTS
 
 SPLITS = (("demo-train", "demo-test"), ("sizes-train", "sizes-test"),
           ("poses-train", "poses-test"))  # fmt: skip
@@ -83,6 +81,7 @@ def main() -> None:
     ap.add_argument("--copies", type=int, default=6)
     ap.add_argument("--seed", type=int, default=0)
     args = ap.parse_args()
+    provenance()
     names = {n for pair in SPLITS for n in pair}
     missing = [n for n in sorted(names) if not (args.cache / n).is_dir()]
     if missing:

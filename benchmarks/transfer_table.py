@@ -11,7 +11,7 @@ benchmark with those protocols and trainings once first).
 Usage::
 
     tactile-bullet benchmark --protocol cross-engine --training clean,randomized --out B
-    python tools/transfer_table.py --cache B/data --protocol cross-engine \\
+    python benchmarks/transfer_table.py --cache B/data --protocol cross-engine \\
         --method time-series:random-forest,signature:svm,signature@level=true:svm \\
         --training clean,randomized
 """
@@ -22,6 +22,7 @@ import argparse
 from pathlib import Path
 
 import numpy as np
+from _report import provenance  # first: this checkout ahead of an installed copy
 
 from tactile_bullet.errors import UsageError
 from tactile_bullet.experiments import protocols as P
@@ -137,13 +138,14 @@ def main() -> None:
     ap.add_argument("--all-levels", action="store_true", help="every level, not headlines")
     ap.add_argument("--doubt", metavar="FILE.json",
                     help="also calibrate each method's margin and write the rows, with their "
-                         "'ambiguous' shares, as a benchmark.json for tools/doubt_report.py")
+                         "'ambiguous' shares, as a benchmark.json for benchmarks/doubt_report.py")
     ap.add_argument("--j0-only", action="store_true",
                     help="read the test grasps as a hand publishing only J0 = J1 + J2")
     ap.add_argument("--hand-calibration", action="append", default=[], metavar="ENGINE=FILE",
                     help="the cross-check reads ENGINE's grasps with this hand calibration "
                          "(tactile-bullet calibrate's file); repeatable")
     args = ap.parse_args()
+    provenance()
     from tactile_bullet.realhand.hand_calibration import load
 
     hands = {}

@@ -80,7 +80,7 @@ FAMILY_RAD = {"sphere": np.array([[0.0] * 4, [0.15] * 4]),
               "cylinder": np.array([[0.0] * 4, [-0.1] * 4])}  # fmt: skip
 SQUEEZING = replace(OTHER, family=FAMILY_RAD)
 """A hand that also closes J0 further on a sphere and less far on a cylinder than the finger
-chain says (as MuJoCo's hand does on its families, tools/calibration_residuals.py)."""
+chain says (as MuJoCo's hand does on its families, benchmarks/calibration_residuals.py)."""
 
 
 def test_known_sizes_learn_how_far_the_hand_squeezes_each_family():

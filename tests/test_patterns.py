@@ -190,7 +190,7 @@ def test_identification_ranges_lie_inside_the_valid_ranges(capsys):
 
 def test_rotation_from_the_grasp_alone_follows_a_turned_cylinder():
     """The object turned about the palm normal, its shape unknown: the end-to-end reading
-    (tools/rotation_end_to_end.py) picks the cylinder's line and lands within a few degrees,
+    (benchmarks/rotation_end_to_end.py) picks the cylinder's line and lands within a few degrees,
     and turning the object further reads larger."""
     from tactile_bullet.perception.summary import rotation_from_grasp
     from tactile_bullet.records import Pose

@@ -262,7 +262,7 @@ def fit_markdown(report: dict) -> str:
         f"It names {fit['overall_rate']:.1%} of the same {report['grasps']} "
         f"grasps (the DTW matcher above: {fit['dtw_rate']:.1%}); median "
         f"{fit['median_ms']:.1f} ms per grasp in this run (a shared machine: see "
-        "`tools/bench_signature.py` for the ratio to DTW). Per shape, rate and by size "
+        "`benchmarks/bench_signature.py` for the ratio to DTW). Per shape, rate and by size "
         "fraction (0 .. 1):",
         "",
         "| shape | rate | by size fraction (0 .. 1) |",

@@ -16,7 +16,7 @@ accuracy.
 
     tactile-bullet sequential --data DIR --out figures/  # DIR from generate --preset sequential
     tactile-bullet sequential --synthetic --timing
-    python tools/sequential_experiment.py ...                # the same, as a tool
+    python benchmarks/sequential_experiment.py ...                # the same, as a tool
 """
 
 from __future__ import annotations

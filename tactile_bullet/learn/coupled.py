@@ -68,7 +68,7 @@ def coupled_record(record: GraspRecord) -> GraspRecord:
 def j0_only(record: GraspRecord) -> GraspRecord:
     """The record as a hand that publishes only J0 is imported today (``realhand/joints.py``):
     J2 takes J0 up to its limit, J1 the rest; efforts both the tendon's (their mean here). For
-    measuring how a descriptor depends on the split (``tools/bench_coupling.py``)."""
+    measuring how a descriptor depends on the split (``benchmarks/bench_coupling.py``)."""
     from ..realhand.joints import J2_MAX
 
     j2, j1 = _pairs(record)

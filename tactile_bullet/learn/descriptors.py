@@ -44,7 +44,7 @@ SIGNATURE_LINE_POINTS = 10
 """Default samples per signature line. The 200-column line is a cubic interpolation of four
 fingers, so it has about four degrees of freedom: 10 samples keep its shape, and unlike 50 they
 do not outweigh the two bulge columns in an RBF kernel's distance. Signature + svm, mean over
-six splits of the demo protocol (``python tools/bench_accuracy.py --seeds 0,1,2,3,4,5
+six splits of the demo protocol (``python benchmarks/bench_accuracy.py --seeds 0,1,2,3,4,5
 [--descriptor-param points=50]``): 95.8% at 10 points, 93.0% at 50. The other classifiers lean
 the other way on the same splits (``... --classifier knn --descriptor-param points=50``):
 knn 86.2% vs 82.2%, som 82.8% vs 77.7%, so give them ``--descriptor-param points=50``. The

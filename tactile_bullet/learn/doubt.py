@@ -14,7 +14,7 @@ flagged). It is stored in the model file's ``info["doubt"]``; a model written be
 loads without one and then flags nothing (its answers still carry their margin).
 
 The margin alone misses the errors that matter most: an SVM on signatures, or any model on
-grasps from a shifted simulator, is wrong *with* a large margin (tools/doubt_report.py: 0 of 21
+grasps from a shifted simulator, is wrong *with* a large margin (benchmarks/doubt_report.py: 0 of 21
 wrong answers flagged). So a model whose classes the training-free shape fit can model is also
 *cross-checked*: the shape fit (``perception/shape_fit.py``, which learns nothing from the
 training data and reads the absolute joint angles) names the grasp too, and an answer it

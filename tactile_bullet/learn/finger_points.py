@@ -14,7 +14,7 @@ Why: an enclosure grasp ends with the phalanges *on the object*, so where they e
 the object's shape and size, while how a finger's bend divides between J3, J2 and J1 is set
 by the hand (servo stiffness, the J1/J2 tendon, the simulator). On one sphere, three Shadow
 hands whose joint angles differ by up to 35 deg end their fingertips 2-10 mm apart
-(docs/figures.md). Measured over 120 objects (``tools/hand_difference.py``), the points move
+(docs/figures.md). Measured over 120 objects (``benchmarks/hand_difference.py``), the points move
 from hand to hand about as little as the signature, a quarter to half of their spread across
 objects where raw joint angles move one to four spreads; unlike the signature, whose lines are
 normalised, they keep the object's size. docs/transfer.md has the accuracies.

@@ -172,7 +172,7 @@ class NeuralForestClassifier(ClassifierMixin, BaseEstimator):
         optimisation is better conditioned. The signature's line samples are strongly
         correlated, and on raw standardised inputs Adam fits the training grasps (98.5%) but
         splits cylinder from hyperboloid at unseen sizes poorly. Demo protocol, four splits
-        (``python tools/bench_accuracy.py --seeds 0,1,2,3 --classifier neural-forest``):
+        (``python benchmarks/bench_accuracy.py --seeds 0,1,2,3 --classifier neural-forest``):
         signature 84.5% without whitening, 95.8% with it (svm 96.2%); signature +
         contact-normals 98.2% with it (svm 97.0%). More updates (1000: 89.5%), deeper trees,
         more trees, all features per tree or a lower learning rate did not close the gap.

@@ -76,7 +76,7 @@ __all__ = [  # the names users import from here, the two stages' modules' includ
 
 TRIANGLE_BUDGET = 20_000
 """Triangles kept for the analysis (r(x), axis, watertightness): a 200k-triangle object
-decimated to it keeps its r(x) within 0.05 mm (tools/bench_mesh.py); decimation time grows
+decimated to it keeps its r(x) within 0.05 mm (benchmarks/bench_mesh.py); decimation time grows
 with the input, not the budget."""
 
 CONVEX_RATIO = 0.995

@@ -55,7 +55,7 @@ ROUNDS = 3
 STRENGTHS = (4.0, 1.0, 0.25, 0.0625)
 """Ridge strengths tried, as multiples of the calibration grasps: the pull toward the starting
 coefficients weighs as much as this many times the grasps the fit is given. Relative, because
-on the other hand measured (``tools/hand_calibration.py``) a fixed pull let 50 grasps drag the
+on the other hand measured (``benchmarks/hand_calibration.py``) a fixed pull let 50 grasps drag the
 coefficients into a self-consistent fit that explains each grasp's own family better and tells
 the families apart worse (10 per shape: 96.7% with a 32-grasp pull, 88.3% with 0.5). The
 weakest is for a hand far from the shipped one: on MuJoCo grasps, 12 per shape, held-out

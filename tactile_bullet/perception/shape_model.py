@@ -230,7 +230,7 @@ class Calibration:
     parameter. ``family`` maps a shape family to a (2, 4) offset (rad) added to its
     prediction: how far a hand squeezes past first contact depends on the surface it closes
     on in ways the planar finger chain does not see (on MuJoCo's hand J0 ends 7-11 deg short
-    on hyperboloids and 10 deg past on spheres, ``tools/calibration_residuals.py``); learnt
+    on hyperboloids and 10 deg past on spheres, ``benchmarks/calibration_residuals.py``); learnt
     from grasps of known objects (``hand_fit.py``), none for a family it does not name. The
     shipped coefficients have none.
     """

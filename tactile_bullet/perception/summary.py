@@ -26,7 +26,7 @@ def rotation_from_grasp(
     line (a cone's slope is its shape, not a rotation). The rotation only means something for
     the calibrated families, so the family is chosen among them, from the absolute angles the
     shape fit reads (scale separates cylinder from hyperboloid where the signature cannot).
-    ``tools/rotation_end_to_end.py`` measures it."""
+    ``benchmarks/rotation_end_to_end.py`` measures it."""
     from ..learn.robust import angles_for_shape_fit
     from .shape_fit import fit_shape
 

@@ -17,7 +17,7 @@ has held still for ``segment.SETTLE_S``, has opened, or has fallen silent for ov
 
 ``update`` only maps names, stores the sample and steps the segmenter (tens of
 microseconds); ``result`` builds the grasp's record and runs the model (about a millisecond
-for signature + svm), and is cached until the next ``update``. ``tools/bench_streaming.py``
+for signature + svm), and is cached until the next ``update``. ``benchmarks/bench_streaming.py``
 measures both.
 """
 

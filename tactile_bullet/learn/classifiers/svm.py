@@ -62,7 +62,7 @@ class SVMClassifier(ClassifierMixin, BaseEstimator):
 
     ``C`` defaults to 100: signatures are deterministic, low-noise curves, so a hard margin
     fits them better than scikit-learn's C=1. Signature + svm, mean over six splits of the
-    demo protocol (``python tools/bench_accuracy.py --seeds 0,1,2,3,4,5 --param C=...``, 600
+    demo protocol (``python benchmarks/bench_accuracy.py --seeds 0,1,2,3,4,5 --param C=...``, 600
     held-out grasps in all): 87.3% at C=10, 91.2% at 30, 95.8% at 100, 96.7% at 300. ``cv``
     folds (fewer when a class is smaller) give the decision values the sigmoids are fitted on;
     ``random_state`` seeds their shuffling.

@@ -1,0 +1,105 @@
+"""The project's benchmarks and the experiments behind the figures the docs quote.
+
+Each ``benchmarks/NAME.py`` is a script: its docstring says what it measures and how to run it
+(``python benchmarks/NAME.py ...``), and it prints, before its figures, the command, the commit
+and the date (``_report.provenance``). ``python -m benchmarks`` runs the fast ones (no dataset
+needed, seconds each) and lists the others with what they need; ``python -m benchmarks
+--list`` prints the catalogue. Maintainer scripts that write package data or models are in
+``tools/``, not here.
+"""
+
+from __future__ import annotations
+
+import ast
+from dataclasses import dataclass
+from pathlib import Path
+
+FOLDER = Path(__file__).resolve().parent
+
+FAST: dict[str, tuple[str, ...]] = {
+    "bench_signature": (),
+    "bench_robust": (),
+    "object_overfill": (),
+    "profile_grasp": ("--engine", "bullet,mujoco", "--repeat", "1"),
+    "bench_mesh": (),
+    "bench_grasp": ("--repeat", "1"),
+    "engine_difference": ("--per-shape", "8"),
+    "bench_predict": ("--overhead-only",),
+}
+"""Benchmarks that need no dataset and finish in well under a minute on two cores, with the
+arguments ``python -m benchmarks`` runs them with."""
+
+NEEDS: dict[str, str] = {
+    "bench_accuracy": "no dataset; simulates the demo's protocol, minutes per seed",
+    "bench_big_inputs": "no dataset; writes a ~440 MB recording and a 1.3M-triangle mesh, "
+    "minutes and GBs of memory",
+    "bench_coupling": "the sets of `tactile-bullet benchmark --protocol coupling-shift "
+    "--training clean,randomized --out DIR` (--data DIR/data)",
+    "bench_generate": "no dataset; builds a 100k-grasp dataset in a temporary folder (minutes)",
+    "bench_recordings": "a dataset with time series (`tactile-bullet generate`)",
+    "bench_streaming": "a dataset with time series (`tactile-bullet generate`)",
+    "bench_temporal": "no dataset; simulates --grasps of a preset twice (~1.5 min for 60)",
+    "bench_time_series": "the thesis preset (`tactile-bullet generate --preset thesis`)",
+    "calibration_residuals": "a simulated set of another hand (benchmarks/other_hand_sets.py)",
+    "doubt_report": "a `tactile-bullet benchmark` run's benchmark.json",
+    "finger_points_figure": "sets of the same objects made by several hands "
+    "(benchmarks/other_hand_sets.py --hand independent)",
+    "first_per_shape": "any dataset or record folder (writes a new record folder)",
+    "hand_calibration": "a set made by another hand (benchmarks/other_hand_sets.py)",
+    "hand_difference": "a set made by another hand (benchmarks/other_hand_sets.py)",
+    "other_hand_sets": "no dataset; simulates 120 grasps a hand (~1 min) into --out, the sets "
+    "the hand benchmarks read; --hand independent needs a `convert-hand` model",
+    "rotation_end_to_end": "no dataset; simulates rotated grasps, ~30 s a size on two cores",
+    "sequential_experiment": "a dataset (--data DIR) or --synthetic; the `sequential` command",
+    "signature_limits": "the full-scale sets a `tactile-bullet benchmark` run caches (--cache)",
+    "transfer_table": "the sets a `tactile-bullet benchmark` run caches (--cache)",
+}
+"""What each of the other benchmarks needs before it can run."""
+
+
+@dataclass(frozen=True)
+class Benchmark:
+    """One script of the catalogue: its name, what it measures (its docstring's first
+    sentence) and its usage lines (the docstring's ``python benchmarks/NAME.py`` lines)."""
+
+    name: str
+    path: Path
+    summary: str
+    usage: tuple[str, ...]
+
+    @property
+    def fast(self) -> bool:
+        return self.name in FAST
+
+
+def catalogue() -> list[Benchmark]:
+    """Every benchmark script in this folder, by name."""
+    out = []
+    for path in sorted(FOLDER.glob("*.py")):
+        if path.name.startswith("_"):
+            continue
+        doc = ast.get_docstring(ast.parse(path.read_text())) or ""
+        summary = " ".join(doc.split("\n\n")[0].split())
+        usage = tuple(_usage_lines(doc, path.name))
+        out.append(Benchmark(path.stem, path, summary, usage))
+    return out
+
+
+def _usage_lines(doc: str, script: str):
+    """The docstring's commands that run ``script``, each joined with its continuation lines
+    (a line ending in a backslash, or an indented line of options under a ``Usage:`` line)."""
+    lines = doc.splitlines()
+    i = 0
+    while i < len(lines):
+        text = lines[i].strip().removeprefix("Usage:").strip()
+        i += 1
+        if not text.startswith(f"python benchmarks/{script}"):
+            continue
+        parts = [text]
+        while i < len(lines) and (
+            parts[-1].endswith("\\") or lines[i].strip().startswith(("[", "--"))
+        ):
+            parts[-1] = parts[-1].removesuffix("\\").rstrip()
+            parts.append(lines[i].strip())
+            i += 1
+        yield " ".join(p for p in parts if p).split("  #")[0].split("   (")[0].strip()

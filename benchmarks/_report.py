@@ -1,0 +1,61 @@
+"""What every benchmark prints beside its figures: the command that produced them, the commit
+it ran on and when, so a figure the docs quote can be traced and run again.
+
+Importing this module also puts the checkout on ``sys.path`` ahead of any installed copy, so
+``python benchmarks/x.py`` measures this checkout's ``tactile_bullet`` (and a benchmark finds
+its neighbours, e.g. ``transfer_table``). Every benchmark imports it before the package.
+"""
+
+from __future__ import annotations
+
+import shlex
+import subprocess
+import sys
+from collections.abc import Sequence
+from datetime import UTC, datetime
+from pathlib import Path
+
+REPO = Path(__file__).resolve().parent.parent
+"""The repository root: ``benchmarks/``'s parent."""
+
+for folder in (Path(__file__).resolve().parent, REPO):
+    if str(folder) not in sys.path[:2]:
+        sys.path.insert(0, str(folder))
+
+
+def commit() -> str:
+    """The checkout's short commit, ``+dirty`` when tracked files differ from it; ``unknown``
+    outside a git checkout."""
+
+    def git(*args: str) -> str:
+        done = subprocess.run(["git", "-C", str(REPO), *args], capture_output=True, text=True,
+                              timeout=10)  # fmt: skip
+        if done.returncode:
+            raise OSError(done.stderr.strip())
+        return done.stdout.strip()
+
+    try:
+        sha = git("rev-parse", "--short", "HEAD")
+        dirty = git("status", "--porcelain", "--untracked-files=no")
+    except (OSError, subprocess.SubprocessError):
+        return "unknown (not a git checkout)"
+    return f"{sha}+dirty" if dirty else sha
+
+
+def command(argv: Sequence[str] | None = None) -> str:
+    """``python benchmarks/NAME.py ARGS`` as this process was started (``argv``: sys.argv)."""
+    argv = list(sys.argv if argv is None else argv)
+    script = Path(argv[0]).resolve()
+    try:
+        name = script.relative_to(REPO).as_posix()
+    except ValueError:
+        name = str(script)
+    return shlex.join(["python", name, *argv[1:]])
+
+
+def provenance(argv: Sequence[str] | None = None) -> None:
+    """Print the command, the commit and the date (UTC), one line each, before the figures."""
+    now = datetime.now(UTC).strftime("%Y-%m-%d %H:%M UTC")
+    print(f"command: {command(argv)}")
+    print(f"commit: {commit()}")
+    print(f"date: {now}", flush=True)

@@ -1,0 +1,141 @@
+"""The documentation site (mkdocs.yml, docs/): it builds with no warning, its generated
+command-line reference covers the parser, its tutorial's commands parse, and every measured
+figure lives on one page.
+
+A broken link, a missing anchor, a page left out of the nav or a docstring reference that does
+not resolve is a warning, and ``mkdocs build --strict`` turns any warning into a failure: the
+build test is what keeps the site whole, run with the rest of the suite (``.ci/run``).
+"""
+
+from __future__ import annotations
+
+import importlib.util
+import os
+import re
+import shlex
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+REPO = Path(__file__).resolve().parent.parent
+DOCS = REPO / "docs"
+
+FIGURES_PAGE = "performance.md"
+"""The one page that holds measured figures, each with its command, date and commit."""
+GENERATED = {"signature_invariance.md": "written by tools/invariance.py from its own run"}
+"""Pages a tool writes from its own output: figures there are that tool's, never copied."""
+PENDING = {
+    "calibration.md": "edited on another branch; its Measured section moves on merge",
+    "engines.md": "edited on another branch; its speed and cross-engine tables move on merge",
+    "real_hand.md": "edited on another branch; its method table moves on merge",
+}
+"""Pages that still hold figures of their own, and why. None of these figures is repeated
+elsewhere (the test below still checks that); the list only shrinks."""
+
+FIGURE = re.compile(r"(?<![\w.])\d+\.\d+ ?%|(?<![\w.])\d+\.\d+x\b")
+"""A measured figure: a percentage or a ratio with a decimal (98.3%, 4.8x). Round numbers
+(targets such as 95%, limits) are not figures; decimals are what a measurement gives."""
+
+
+def _hook():
+    spec = importlib.util.spec_from_file_location("docs_hook_pages", DOCS / "_hooks" / "pages.py")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+def test_the_site_builds_with_no_warning(tmp_path):
+    """`mkdocs build --strict`: links, anchors, the nav and the API references all resolve."""
+    path = os.pathsep.join([str(REPO), os.environ.get("PYTHONPATH", "")])
+    env = {**os.environ, "PYTHONPATH": path, "NO_MKDOCS_2_WARNING": "1"}
+    proc = subprocess.run(
+        [sys.executable, "-m", "mkdocs", "build", "--strict", "--site-dir", str(tmp_path / "site")],
+        cwd=REPO, env=env, capture_output=True, text=True, timeout=600,
+    )  # fmt: skip
+    output = proc.stdout + proc.stderr
+    assert proc.returncode == 0, output[-4000:]
+    assert "WARNING" not in output, output[-4000:]
+    for page in ("reference/cli", "reference/python", "howto/plugin", "changelog"):
+        assert (tmp_path / "site" / page / "index.html").is_file(), page
+
+
+def test_the_cli_reference_covers_every_command_and_option():
+    """The page is walked from the parser the CLI builds, so a new command or option appears
+    in it without anyone writing it down."""
+    from tactile_bullet.cli import build_parser
+
+    hook = _hook()
+    page = hook.cli_reference()
+    for name, (_, parser) in hook.subcommands(build_parser()).items():
+        section = page.split(f"## `{name}`\n", 1)[1].split("\n## ", 1)[0]
+        for action in parser._actions:
+            for option in action.option_strings:
+                if option not in ("-h", "--help"):
+                    assert f"`{option}" in section or f", {option}" in section, (name, option)
+
+
+def _commands(page: Path) -> list[str]:
+    blocks = re.findall(r"^```bash\n(.*?)^```", page.read_text(encoding="utf-8"), re.S | re.M)
+    return [line for block in blocks for line in block.splitlines()
+            if line.startswith("tactile-bullet ")]  # fmt: skip
+
+
+@pytest.mark.parametrize("page", ["tutorial.md", "howto/engine.md"])
+def test_the_guides_commands_parse(page):
+    """Every ``tactile-bullet`` line of the hand-written guides names real options."""
+    from tactile_bullet.cli import build_parser, join_negative_values
+
+    commands = _commands(DOCS / page)
+    assert commands
+    for command in commands:
+        argv = shlex.split(command, comments=True)[1:]
+        parser = build_parser()
+        try:
+            parser.parse_args(join_negative_values(argv))
+        except SystemExit as exc:
+            raise AssertionError(f"{page}: {command}") from exc
+
+
+def _pages() -> dict[str, str]:
+    pages = {p.relative_to(DOCS).as_posix(): p.read_text(encoding="utf-8")
+             for p in DOCS.rglob("*.md")}  # fmt: skip
+    pages["../README.md"] = (REPO / "README.md").read_text(encoding="utf-8")
+    return pages
+
+
+def test_measured_figures_live_on_one_page():
+    """A figure is quoted from the figures page, not copied: outside it (and the pages a
+    tool generates) no page holds one, except the pages :data:`PENDING` names."""
+    stray = {}
+    for name, text in _pages().items():
+        if name == FIGURES_PAGE or name in GENERATED or name in PENDING:
+            continue
+        found = FIGURE.findall(text)
+        if found:
+            stray[name] = found[:5]
+    assert not stray, f"figures outside {FIGURES_PAGE}: link to it instead: {stray}"
+    for name in PENDING:
+        assert FIGURE.search((DOCS / name).read_text(encoding="utf-8")), f"{name}: unlist it"
+
+
+def test_no_figure_is_in_two_pages():
+    """A pending page's figures are its own: none of its sentences with a figure appears in
+    the figures page too (a figure moved there must leave the pending page)."""
+    figures = (DOCS / FIGURES_PAGE).read_text(encoding="utf-8")
+    for name in PENDING:
+        for line in (DOCS / name).read_text(encoding="utf-8").splitlines():
+            if FIGURE.search(line) and line.strip().startswith("|"):
+                assert line.strip() not in figures, f"{name} repeats {FIGURES_PAGE}: {line}"
+
+
+def test_every_figure_section_says_when_and_where_it_was_measured():
+    """Each section of the figures page with figures carries its date and commit."""
+    text = (DOCS / FIGURES_PAGE).read_text(encoding="utf-8")
+    for section in re.split(r"^#{2,3} ", text, flags=re.M)[1:]:
+        own = re.split(r"^#{2,4} ", section, flags=re.M)[0]
+        if FIGURE.search(own) or "\n|" in own:
+            title = own.splitlines()[0]
+            assert re.search(r"\b20\d\d-\d\d-\d\d\b", own), f"{title}: no date"
+            assert re.search(r"\bcommit [0-9a-f]{7,}\b", own), f"{title}: no commit"

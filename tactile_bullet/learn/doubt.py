@@ -236,11 +236,13 @@ def calibrate_margin(
     seed: int = 0,
     records: Sequence | None = None,
     classifier: str = "",
+    names: Callable[[Sequence, Sequence[str]], np.ndarray] | None = None,
 ) -> dict[str, Any]:
     """The model file's ``info["doubt"]``: ``margin`` (the threshold, None when it could not
     be calibrated, with ``reason``), ``cross_check`` (``"shape-fit"`` or None: given the
     training ``records`` and a model the shape fit can second), the held-out figures it was
-    set on, and how."""
+    set on, and how. ``names(records, classes)`` reads the shape fit's answers (default
+    :func:`cross_check_names`; a caller that has read them already passes its cache)."""
     found = held_out_margins(make, x, y, folds, seed)
     doc: dict[str, Any] = {"false_alarm": float(false_alarm), "folds": int(folds),
                            "cross_check": None}  # fmt: skip
@@ -253,7 +255,7 @@ def calibrate_margin(
     if records is not None and cross_check_applies(sorted(set(y)), classifier):
         if len(keep) > CROSS_CHECK_SAMPLES:
             keep = np.sort(np.random.default_rng(seed).choice(len(y), CROSS_CHECK_SAMPLES, False))
-        other = cross_check_names([records[i] for i in keep], sorted(set(y)))
+        other = (names or cross_check_names)([records[i] for i in keep], sorted(set(y)))
         # a right held-out answer is the true label: the cross-check contradicts it where it
         # names another shape (or none)
         seconded[keep] = (other != y[keep]) & right[keep]

@@ -1,0 +1,157 @@
+"""Answers of no family: ``unknown`` where a grasp lies far from every grasp the model learnt.
+
+A classifier names one of its classes for any input, so a box or a pear comes back as a
+confident "sphere". What is measured here instead is how far a grasp's features lie from the
+model's training grasps: the mean distance to its ``K`` nearest training grasps, each feature
+scaled by its spread over the training set (median absolute deviation, so a few extreme
+grasps do not set the scale). A grasp further than the calibrated threshold is answered
+``unknown``, the classifier's name still given as the best guess.
+
+The threshold is calibrated on held-out folds of the training grasps (each scored against the
+other folds only, as a new grasp would be): the largest distance that at most ``UNKNOWN_RATE``
+of them exceed. Trained on randomised hands, that is the promise "at most 5% of in-family
+grasps of a hand within the drawn range are answered unknown". It is kept in the model file
+(``novelty.reference`` and ``info["novelty"]``); a model written before it existed answers
+no grasp unknown.
+
+Why distance and not the classifier's probability: out-of-family grasps come with high
+probabilities (docs/doubt.md). Why the model's own features: they are what the model knows;
+the objects it was never shown are what it cannot name.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+K = 5
+"""Nearest training grasps averaged."""
+UNKNOWN_RATE = 0.05
+"""Share of held-out in-family training grasps the threshold may answer unknown."""
+FOLDS = 3
+MAX_REFERENCE = 4096
+"""Training grasps kept as the reference (a random subset beyond this: the file stays small
+and a distance query stays under a millisecond)."""
+_FLOOR = 1e-6
+
+
+@dataclass(frozen=True)
+class Novelty:
+    """How far a grasp lies from a model's training grasps, and where that means unknown."""
+
+    centre: np.ndarray
+    """Per-feature median of the training features."""
+    scale: np.ndarray
+    """Per-feature spread (1.4826 x median absolute deviation, floored)."""
+    reference: np.ndarray
+    """The training grasps' scaled features (n, d)."""
+    threshold: float
+    """Distance above which a grasp is answered unknown."""
+    k: int = K
+
+    @classmethod
+    def fit(
+        cls, x: np.ndarray, y: np.ndarray | None = None, rate: float = UNKNOWN_RATE,
+        folds: int = FOLDS, seed: int = 0,
+    ) -> Novelty:  # fmt: skip
+        """Scale from ``x`` (n, d), threshold from its held-out folds (stratified by ``y``
+        where given, so each fold keeps every shape)."""
+        x = np.asarray(x, dtype=float)
+        if x.ndim != 2 or len(x) < 2 * (K + 1):
+            raise ValueError(f"novelty needs at least {2 * (K + 1)} training grasps")
+        centre = np.median(x, axis=0)
+        scale = 1.4826 * np.median(np.abs(x - centre), axis=0)
+        # a feature that never varies in training gets the mean spread of the others: a grasp
+        # that moves it is unusual, but not infinitely so
+        floor = max(_FLOOR, float(np.mean(scale[scale > _FLOOR])) if np.any(scale > _FLOOR)
+                    else 1.0)  # fmt: skip
+        scale = np.where(scale > _FLOOR, scale, floor)
+        z = (x - centre) / scale
+        held = _held_out(z, y, folds, seed)
+        threshold = float(np.quantile(held, 1.0 - rate, method="higher"))
+        rng = np.random.default_rng(seed)
+        keep = np.sort(rng.choice(len(z), MAX_REFERENCE, replace=False)) if len(z) > \
+            MAX_REFERENCE else np.arange(len(z))  # fmt: skip
+        return cls(centre, scale, z[keep], threshold)
+
+    def scores(self, x: np.ndarray) -> np.ndarray:
+        """Distance of each row of ``x`` (n, d) from the training grasps."""
+        z = (np.asarray(x, dtype=float) - self.centre) / self.scale
+        return _knn_distance(z, self.reference, self.k)
+
+    def unknown(self, x: np.ndarray) -> np.ndarray:
+        """Which rows of ``x`` are answered unknown."""
+        return self.scores(x) > self.threshold
+
+    def to_state(self) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
+        arrays = {"centre": self.centre, "scale": self.scale, "reference": self.reference}
+        return {"threshold": self.threshold, "k": self.k, "rate": UNKNOWN_RATE}, arrays
+
+    @classmethod
+    def from_state(cls, state: dict, arrays: dict[str, np.ndarray]) -> Novelty:
+        """Rebuilt from a model file; ValueError naming what is wrong where it is damaged."""
+        try:
+            threshold, k = state["threshold"], state["k"]
+            centre, scale, ref = (np.asarray(arrays[n]) for n in ("centre", "scale", "reference"))
+        except (KeyError, TypeError):
+            raise ValueError("novelty fields missing") from None
+        if isinstance(threshold, bool) or not isinstance(threshold, int | float) or \
+                not np.isfinite(threshold) or threshold < 0:  # fmt: skip
+            raise ValueError(f"novelty threshold {threshold!r} is not a distance")
+        if isinstance(k, bool) or not isinstance(k, int) or not 1 <= k <= 64:
+            raise ValueError(f"novelty k {k!r} is not a small positive count")
+        for name, arr in (("centre", centre), ("scale", scale), ("reference", ref)):
+            if arr.dtype.kind != "f" or not np.all(np.isfinite(arr)):
+                raise ValueError(f"novelty {name} holds non-numbers")
+        d = centre.shape[0] if centre.ndim == 1 else -1
+        if scale.shape != (d,) or ref.ndim != 2 or ref.shape[1] != d or len(ref) <= k:
+            raise ValueError("novelty arrays disagree in shape")
+        if np.any(scale <= 0):
+            raise ValueError("novelty scale is not positive")
+        return cls(centre.astype(float), scale.astype(float), ref.astype(float),
+                   float(threshold), int(k))  # fmt: skip
+
+    def summary(self) -> dict[str, Any]:
+        """``info["novelty"]`` of a model file (what ``train --json`` reports)."""
+        return {"threshold": self.threshold, "k": self.k, "rate": UNKNOWN_RATE,
+                "reference": int(len(self.reference))}  # fmt: skip
+
+
+def _knn_distance(z: np.ndarray, reference: np.ndarray, k: int) -> np.ndarray:
+    """Mean Euclidean distance of each row of ``z`` to its ``k`` nearest rows of
+    ``reference`` (blocked so a large batch stays within memory)."""
+    k = min(k, len(reference))
+    out = np.empty(len(z))
+    ref_sq = np.einsum("ij,ij->i", reference, reference)
+    for lo in range(0, len(z), 512):
+        block = z[lo : lo + 512]
+        d2 = np.einsum("ij,ij->i", block, block)[:, None] + ref_sq[None, :] \
+            - 2.0 * block @ reference.T  # fmt: skip
+        d2 = np.maximum(d2, 0.0)
+        near = np.partition(d2, k - 1, axis=1)[:, :k]
+        out[lo : lo + 512] = np.mean(np.sqrt(near), axis=1)
+    return out
+
+
+def _held_out(z: np.ndarray, y: np.ndarray | None, folds: int, seed: int) -> np.ndarray:
+    """Each row's distance to the other folds' rows."""
+    from sklearn.model_selection import KFold, StratifiedKFold
+
+    n = len(z)
+    folds = max(2, min(int(folds), n // (K + 1)))
+    if y is not None:
+        labels = np.asarray(y).astype(str)
+        _, counts = np.unique(labels, return_counts=True)
+        if counts.min() >= folds:
+            splitter = StratifiedKFold(folds, shuffle=True, random_state=seed)
+            parts = splitter.split(z, labels)
+        else:
+            parts = KFold(folds, shuffle=True, random_state=seed).split(z)
+    else:
+        parts = KFold(folds, shuffle=True, random_state=seed).split(z)
+    out = np.empty(n)
+    for train_idx, test_idx in parts:
+        out[test_idx] = _knn_distance(z[test_idx], z[train_idx], K)
+    return out

@@ -562,3 +562,38 @@ def _available(candidates: Sequence[Candidate]) -> list[Candidate]:
 
 __all__ = ["CANDIDATES", "COLUMNS", "Candidate", "Column", "run_robustness", "score_matrix",
            "winner", "table_text", "set_specs", "replayed"]  # fmt: skip
+
+
+def fit_model(
+    descriptor: str, params: Mapping[str, Any], classifier: str,
+    records: Sequence[GraspRecord], seed: int = 0, info: Mapping[str, Any] | None = None,
+):  # fmt: skip
+    """A saved-model-ready :class:`~tactile_bullet.learn.models.Model` of one method on
+    ``records``: the classifier, its doubt (margin and the shape fit's second opinion,
+    calibrated on held-out folds) and its novelty (unknown at most 5% of held-out in-family
+    grasps); what ``tools/make_default_model.py`` ships."""
+    from ..learn.doubt import model_doubt
+    from ..learn.models import Model
+    from ..learn.novelty import Novelty
+    from ..plugins import get_classifier, get_descriptor
+
+    desc = get_descriptor(descriptor, **dict(params))
+    x = np.asarray(desc.transform(records), float)
+    y = _labels(records)
+    estimator = get_classifier(classifier).fit(x, y)
+    doubt: dict[str, Any] = {"margin": None, "cross_check": None}
+    if classifier != "shape-fit":
+        doubt = model_doubt(lambda: get_classifier(classifier), x, y, records, classifier)
+    novelty = Novelty.fit(x, y, seed=seed)
+    return Model(descriptor, dict(params), classifier, {}, estimator,
+                 info={**dict(info or {}), "doubt": doubt, "novelty": novelty.summary(),
+                       "train_records": len(records)},
+                 novelty=novelty)  # fmt: skip
+
+
+def training_records(cache: Path, scale: str, training: str) -> list[GraspRecord]:
+    """The records of one of the matrix's trainings, read from its cache."""
+    from .benchmark import load_set
+
+    specs = set_specs(scale, {}, None)
+    return [r for short in TRAININGS[training] for r in load_set(cache / specs[short].name)[0]]

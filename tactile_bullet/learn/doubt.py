@@ -327,13 +327,19 @@ def answer_doubt(
     proba: np.ndarray | None,
     threshold: float | None,
     second_opinion: str | None = None,
+    novelty: float | None = None,
+    novelty_threshold: float | None = None,
 ) -> dict[str, Any]:
-    """``{"margin", "ambiguous", "cross_check"}`` of one answer: ``ambiguous`` is ``[shape,
-    runner-up]`` when the margin is below the threshold, else ``[shape, second_opinion]`` when
-    the cross-check names another shape, else None; without probabilities the margin is None.
-    ``cross_check`` is the second opinion (None where none was asked)."""
+    """``{"margin", "ambiguous", "cross_check", "unknown", "novelty"}`` of one answer:
+    ``ambiguous`` is ``[shape, runner-up]`` when the margin is below the threshold, else
+    ``[shape, second_opinion]`` when the cross-check names another shape, else None; without
+    probabilities the margin is None. ``cross_check`` is the second opinion (None where none
+    was asked). ``unknown`` is True where the grasp's ``novelty`` (its distance from the
+    model's training grasps, :mod:`.novelty`) is above the model's ``novelty_threshold``: no
+    family the model knows explains it, and ``shape`` is only the best guess."""
     opinion = second_opinion or None
-    out: dict[str, Any] = {"margin": None, "ambiguous": None, "cross_check": opinion}
+    out: dict[str, Any] = {"margin": None, "ambiguous": None, "cross_check": opinion,
+                           "unknown": False, "novelty": novelty}  # fmt: skip
     classes = [str(c) for c in classes]
     if proba is not None and len(classes) >= 2:
         decided = classes.index(shape)
@@ -343,6 +349,8 @@ def answer_doubt(
             out["ambiguous"] = [shape, classes[int(second[0])]]
     if out["ambiguous"] is None and opinion is not None and opinion != shape:
         out["ambiguous"] = [shape, opinion]
+    if novelty is not None and novelty_threshold is not None:
+        out["unknown"] = bool(novelty > novelty_threshold)
     return out
 
 
@@ -401,8 +409,14 @@ def doubts(
         others = list(model.known.nearest(records))
     elif opinion == CROSS_CHECK:
         others = list(cross_check_names(records, classes))
+    novelty = getattr(model, "novelty", None)
+    scores: Sequence[float | None] = [None] * len(names)
+    if novelty is not None and len(records):
+        scores = [float(v) for v in novelty.scores(model.features(records))]
+    limit = None if novelty is None else novelty.threshold
     return [
-        answer_doubt(classes, str(n), None if proba is None else proba[i], threshold, others[i])
+        answer_doubt(classes, str(n), None if proba is None else proba[i], threshold, others[i],
+                     scores[i], limit)  # fmt: skip
         for i, n in enumerate(names)
     ]
 
@@ -412,10 +426,25 @@ def evaluation_doubt(model, records: Sequence, y_true, y_pred, proba) -> dict[st
     "right_flagged", "wrong_flagged"}``, the model's threshold, its second opinion, and the
     share of all, right and wrong answers flagged (docs/json.md)."""
     found = doubts(model, records, y_pred, proba)
-    flags = np.array([d["ambiguous"] is not None for d in found], dtype=bool)
-    correct = np.asarray(y_pred).astype(str) == np.asarray(y_true).astype(str)
+    flags = np.array([d["ambiguous"] is not None or d["unknown"] for d in found], dtype=bool)
+    unknown = np.array([d["unknown"] for d in found], dtype=bool)
+    truth = np.asarray(y_true).astype(str)
+    correct = np.asarray(y_pred).astype(str) == truth
     cross = second_opinion(model)
-    return {"margin": model.doubt_margin, "cross_check": cross, **flag_shares(flags, correct)}
+    family = np.isin(truth, [str(c) for c in model.classes])
+    novelty = getattr(model, "novelty", None)
+
+    def share(mask: np.ndarray) -> float | None:
+        return float(np.mean(unknown[mask])) if mask.any() else None
+
+    return {
+        "margin": model.doubt_margin, "cross_check": cross, **flag_shares(flags, correct),
+        "unknown": {
+            "threshold": None if novelty is None else novelty.threshold,
+            "in_family": share(family), "out_of_family": share(~family),
+            "in_family_grasps": int(family.sum()), "out_of_family_grasps": int((~family).sum()),
+        },
+    }  # fmt: skip
 
 
 def pair_doubt(

@@ -58,6 +58,8 @@ if TYPE_CHECKING:
 
 _STATE_PREFIX = "state."
 _KNOWN_FEATURES, _KNOWN_LABELS = "known.features", "known.labels"
+_NOVELTY_ARRAYS = ("centre", "scale", "reference")
+_NOVELTY_PREFIX = "novelty."
 
 
 @runtime_checkable
@@ -87,6 +89,10 @@ class Model:
     known: KnownGrasps | None = None
     """:class:`tactile_bullet.learn.doubt.KnownGrasps` of a model fitted with the user's known
     grasps (``train --known``): they second its answers. Saved as ``known.*`` arrays."""
+    novelty: Any = None
+    """:class:`tactile_bullet.learn.novelty.Novelty`: how far a grasp lies from the training
+    grasps, and where that answers ``unknown`` (None in a model file written before it
+    existed: no answer is unknown). Saved as ``novelty.*`` arrays."""
     software_version: str = __version__
     format_version: int = MODEL_FORMAT_VERSION
 
@@ -158,6 +164,11 @@ def save_model(path: str | Path, model: Model) -> Path:
         meta["known_descriptor"] = model.known.descriptor
         arrays[_KNOWN_FEATURES] = np.asarray(model.known.features, dtype=float)
         arrays[_KNOWN_LABELS] = np.asarray(model.known.labels).astype(str)
+    if model.novelty is not None:
+        state, novelty_arrays = model.novelty.to_state()
+        meta["novelty"] = state
+        arrays |= {_NOVELTY_PREFIX + k: np.asarray(v, dtype=float)
+                   for k, v in novelty_arrays.items()}  # fmt: skip
     if isinstance(est, StatefulEstimator):
         state, state_arrays = est.to_state()
         meta["estimator_encoding"] = "state"
@@ -190,7 +201,8 @@ a million grasps holds ~200 MB of support vectors)."""
 
 def _is_model_member(name: str) -> bool:
     return name in (
-        "meta", "estimator_state", "estimator_skops", _KNOWN_FEATURES, _KNOWN_LABELS
+        "meta", "estimator_state", "estimator_skops", _KNOWN_FEATURES, _KNOWN_LABELS,
+        *(_NOVELTY_PREFIX + k for k in _NOVELTY_ARRAYS),
     ) or name.startswith(_STATE_PREFIX)  # fmt: skip
 
 
@@ -288,6 +300,7 @@ def load_model(path: str | Path) -> Model:
         raise UsageError(f"{path} is not a valid model: its classes do not match its metadata")
     info = meta.get("info", {})
     known = _load_known(path, meta, contents, classes)
+    novelty = _load_novelty(path, meta, contents)
     return Model(
         descriptor=descriptor,
         descriptor_params=descriptor_params,
@@ -296,6 +309,7 @@ def load_model(path: str | Path) -> Model:
         estimator=estimator,
         info=info if isinstance(info, dict) else {},
         known=known,
+        novelty=novelty,
         software_version=str(meta.get("software_version", "unknown")),
         format_version=MODEL_FORMAT_VERSION,
     )
@@ -324,6 +338,23 @@ def _load_known(path: Path, meta: dict, contents: dict[str, np.ndarray], classes
     except (ValueError, UsageError) as exc:
         raise UsageError(f"{path} is not a valid model: {exc}") from None
     return known
+
+
+def _load_novelty(path: Path, meta: dict, contents: dict[str, np.ndarray]):
+    """The model's novelty (None where it was written without), checked: a damaged one is
+    refused, never used to answer unknown."""
+    from .novelty import Novelty
+
+    arrays = {k: contents.get(_NOVELTY_PREFIX + k) for k in _NOVELTY_ARRAYS}
+    state = meta.get("novelty")
+    if state is None and all(v is None for v in arrays.values()):
+        return None
+    if not isinstance(state, dict) or any(v is None for v in arrays.values()):
+        raise UsageError(f"{path} is not a valid model: its novelty fields are incomplete")
+    try:
+        return Novelty.from_state(state, arrays)
+    except ValueError as exc:
+        raise UsageError(f"{path} is not a valid model: {exc}") from None
 
 
 def _load_state(path: Path, contents: dict[str, np.ndarray], template: Any) -> Any:

@@ -1,0 +1,78 @@
+"""Write the default identifier (package data) from a robustness matrix's winner.
+
+Reads the matrix's ``robustness.json`` (``tactile-bullet benchmark --protocol robustness
+--out OUT``), trains the method it names as the default on the same training sets (read from
+the matrix's cache, so the shipped model is the one the matrix scored), calibrates its doubt
+and novelty, and writes ``tactile_bullet/data/default_model.npz`` with
+``default_model.json`` beside it (the method, its figures in every column, the matrix's
+command and the model's sha256, which the package checks before using it).
+
+Usage: python tools/make_default_model.py --matrix OUT [--cache OUT/data] [--no-write]
+"""
+
+from __future__ import annotations
+
+import argparse
+import hashlib
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parent.parent
+sys.path.insert(0, str(ROOT))
+
+from tactile_bullet.experiments import robustness as R  # noqa: E402
+from tactile_bullet.learn.default import META_FILE, MODEL_FILE  # noqa: E402
+from tactile_bullet.learn.models import save_model  # noqa: E402
+
+DATA = ROOT / "tactile_bullet" / "data"
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--matrix", required=True, help="the matrix's --out folder")
+    ap.add_argument("--cache", help="its grasp cache (default MATRIX/data)")
+    ap.add_argument("--no-write", action="store_true", help="train and report, write nothing")
+    args = ap.parse_args()
+    matrix = Path(args.matrix)
+    doc = json.loads((matrix / "robustness.json").read_text())
+    best = doc["default"]
+    if best is None:
+        sys.exit("the matrix names no default (no eligible method)")
+    scale = doc["config"]["scale"]
+    if scale != "full":
+        sys.exit(f"the default is chosen at full scale; this matrix is {scale!r}")
+    cache = Path(args.cache) if args.cache else matrix / "data"
+    records = R.training_records(cache, scale, best["training"])
+    row = next(r for r in doc["rows"] if r["method"] == best["method"]
+               and r["training"] == best["training"])  # fmt: skip
+    commit = subprocess.run(["git", "-C", str(ROOT), "rev-parse", "--short", "HEAD"],
+                            capture_output=True, text=True).stdout.strip()  # fmt: skip
+    info = {"default": {"method": best["method"], "training": best["training"]}}
+    model = R.fit_model(best["descriptor"], best["params"], best["classifier"], records,
+                        info=info)  # fmt: skip
+    print(f"{best['method']} ({best['training']}) on {len(records)} grasps; worst column "
+          f"{100 * best['score']:.1f}%, mean {100 * best['mean']:.1f}%")
+    print(f"doubt: {model.info['doubt'].get('margin')}, novelty threshold "
+          f"{model.novelty.threshold:.3f}")
+    if args.no_write:
+        return
+    path = save_model(DATA / MODEL_FILE, model)
+    meta = {
+        "method": best["method"], "descriptor": best["descriptor"], "params": best["params"],
+        "classifier": best["classifier"], "training": best["training"],
+        "train_records": len(records), "score": best["score"], "mean": best["mean"],
+        "columns": {k: v.get("accuracy") for k, v in row["columns"].items()},
+        "out_of_family_unknown": row["columns"].get(R.OUT_OF_FAMILY, {}).get("unknown"),
+        "matrix": "tactile-bullet benchmark --protocol robustness --scale full "
+                  "--other-hand menagerie=M.xml,gymnasium=G.xml --out OUT",
+        "generated_by": "tools/make_default_model.py", "commit": commit,
+        "sha256": hashlib.sha256(path.read_bytes()).hexdigest(),
+    }  # fmt: skip
+    (DATA / META_FILE).write_text(json.dumps(meta, indent=2) + "\n")
+    print(f"wrote {path} ({path.stat().st_size / 1024:.0f} KiB) and {DATA / META_FILE}")
+
+
+if __name__ == "__main__":
+    main()

@@ -26,6 +26,7 @@ no thesis family, the no-family household meshes) is scored by the share answere
 from __future__ import annotations
 
 import json
+import math
 import os
 import tempfile
 import time
@@ -106,11 +107,12 @@ TRAININGS: dict[str, tuple[str, ...]] = {
     "bullet-randomized": ("bullet-train-randomized",),
     "mujoco-randomized": ("mujoco-train-randomized",),
     "both-randomized": ("bullet-train-randomized", "mujoco-train-randomized"),
+    "posed-randomized": ("bullet-posed-randomized", "mujoco-posed-randomized"),
     "none": ("bullet-train",),
 }
 """Training name -> the sets it joins (``none``: the training-free shape fit, which is fitted
 on the Bullet set only to learn its class names)."""
-RANDOMIZED = ("bullet-randomized", "mujoco-randomized", "both-randomized")
+RANDOMIZED = ("bullet-randomized", "mujoco-randomized", "both-randomized", "posed-randomized")
 LEARNT = ("bullet", *RANDOMIZED)
 
 
@@ -143,11 +145,17 @@ CANDIDATES: tuple[Candidate, ...] = (
 )
 """Every method the matrix scores (docs/robustness.md, rule 7)."""
 
+POSED_X = (-0.010, -0.005, 0.0, 0.005, 0.010)
+POSED_Z = (-0.010, -0.005, 0.0, 0.005, 0.010)
+"""Offsets (m) of the posed training recipe (added after the first full run, docs/robustness.md);
+its rotations are :data:`TURNED_DEG`."""
+
 SEEN: dict[str, tuple[str, ...]] = {
     "finger-points": ("menagerie", "gymnasium"),
     "coupled-finger-points": ("menagerie", "gymnasium"),
     "mujoco-randomized": ("gymnasium",),
     "both-randomized": ("gymnasium",),
+    "posed-randomized": ("gymnasium", "poses", "turned", "household"),
 }
 """Descriptor or training -> columns it was chosen after seeing (rule 2): marked ``*`` and
 left out of its score."""
@@ -220,7 +228,11 @@ def set_specs(
         out[f"{engine}-train-randomized"] = replace(
             train, name=P.randomized_name(train.name), randomize=table
         )
-    del out["mujoco-train"]  # only its randomised twin is a training set
+        out[f"{engine}-posed-randomized"] = replace(
+            train, name=f"{tag}{engine}-posed-randomized", offset_x=POSED_X, offset_z=POSED_Z,
+            rotation_deg=TURNED_DEG, randomize=table, seed=103,
+        )
+    del out["mujoco-train"]  # only its randomised twins are training sets
     for k, hand in enumerate(OTHER_HANDS):
         if hand in hands:
             ctl = replace(mujoco, hand_model=str(Path(hands[hand]).resolve()))
@@ -237,6 +249,11 @@ def set_specs(
                           "offset_z": poses["offset_z"]}
                          for s in (*OUT_OF_FAMILY_SHAPES, *plugin_shapes)]  # fmt: skip
         out[OUT_OF_FAMILY] = SweepSet(f"{tag}{OUT_OF_FAMILY}", oof, 152, str(objects))
+        table = {"name": OUT_OF_FAMILY_VALIDATION, "mode": "random", "samples": n_object,
+                 "objects": [{"file": f"{o}.stl", "unit": "m", **poses}
+                             for o in VALIDATION_OBJECTS]}  # fmt: skip
+        out[OUT_OF_FAMILY_VALIDATION] = SweepSet(f"{tag}{OUT_OF_FAMILY_VALIDATION}", table, 153,
+                                                 str(objects))  # fmt: skip
     return out
 
 
@@ -248,14 +265,82 @@ def _object_table(name: str, objects, poses: Mapping, samples: int, folder: Path
 
 
 def write_objects(folder: Path) -> Path:
-    """The example meshes the household and out-of-family sets grasp, written once."""
+    """The meshes the household and out-of-family sets grasp, written once."""
+    from ..files import atomic_path
     from ..objects.examples import OBJECTS, write_object
 
     folder.mkdir(parents=True, exist_ok=True)
     for name in (*FAMILY_OBJECTS, *NO_FAMILY_OBJECTS):
         if not (folder / f"{name}.{OBJECTS[name][1]}").is_file():
             write_object(name, folder)
+    for name, build in VALIDATION_OBJECTS.items():
+        path = folder / f"{name}.stl"
+        if not path.is_file():
+            with atomic_path(path, "validation object") as tmp:
+                build().export(tmp, file_type="stl")
     return folder
+
+
+def _rounded_box(extents, radius: float):
+    import trimesh
+
+    half = np.asarray(extents, float) / 2 - radius
+    corners = np.array([[sx, sy, sz] for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)])
+    ball = trimesh.creation.icosphere(subdivisions=2, radius=radius)
+    points = np.vstack([ball.vertices + c * half for c in corners])
+    return trimesh.convex.convex_hull(points)
+
+
+def _prism(section: np.ndarray, length: float):
+    """A prism of a convex cross-section (k, 2), ``length`` along z, centred."""
+    import trimesh
+
+    ends = [np.c_[section, np.full(len(section), z)] for z in (-length / 2, length / 2)]
+    return trimesh.convex.convex_hull(np.vstack(ends))
+
+
+def _stadium(radius: float, flat: float, length: float):
+    t = np.linspace(-np.pi / 2, np.pi / 2, 24)
+    right = np.c_[flat / 2 + radius * np.cos(t), radius * np.sin(t)]
+    return _prism(np.vstack([right, -right]), length)
+
+
+def _spindle(radius: float, length: float):
+    import trimesh
+
+    profile = np.array([[0.0, -length / 2], [radius, 0.0], [0.0, length / 2]])
+    return trimesh.creation.revolve(profile, sections=64)
+
+
+def _ellipsoid(extents):
+    import trimesh
+
+    mesh = trimesh.creation.icosphere(subdivisions=4, radius=1.0)
+    mesh.apply_scale(np.asarray(extents, float) / 2)
+    return mesh
+
+
+def _box(extents):
+    import trimesh
+
+    return trimesh.creation.box(extents=extents)
+
+
+VALIDATION_OBJECTS: dict[str, Callable[[], Any]] = {
+    "cuboid": lambda: _box((0.05, 0.07, 0.11)),
+    "square_bar": lambda: _box((0.04, 0.04, 0.12)),
+    "cube": lambda: _box((0.06, 0.06, 0.06)),
+    "meat_tin": lambda: _rounded_box((0.1, 0.055, 0.085), 0.008),
+    "triangular_prism": lambda: _prism(0.07 / math.sqrt(3) * np.array(
+        [[math.cos(a), math.sin(a)] for a in (math.pi / 2, 7 * math.pi / 6, 11 * math.pi / 6)]),
+        0.11),
+    "spindle": lambda: _spindle(0.045, 0.13),
+    "flat_ellipsoid": lambda: _ellipsoid((0.08, 0.05, 0.12)),
+    "stadium_prism": lambda: _stadium(0.03, 0.03, 0.11),
+}
+"""The second out-of-family set (metres, main axis along z), declared before it was scored."""
+OUT_OF_FAMILY_VALIDATION = "out-of-family-validation"
+OUT_OF_FAMILY_SETS = (OUT_OF_FAMILY, OUT_OF_FAMILY_VALIDATION)
 
 
 def plugin_shapes() -> list[str]:
@@ -360,7 +445,7 @@ def score_matrix(
     say = log or (lambda _m: None)
     columns = [c for c in COLUMNS if all(s in sets for s in c.sets)]
     tests = {c.name: read_column(c, sets, seed) for c in columns}
-    oof = sets.get(OUT_OF_FAMILY)
+    oof = {n: sets[n] for n in OUT_OF_FAMILY_SETS if n in sets}
     fit_cache: dict[int, str] = {}
     rows = []
     runs = [(c, t) for c in candidates for t in c.trainings]
@@ -379,9 +464,8 @@ def score_matrix(
         fitted = _fit(cand, x, y, train, seed, fit_cache, calibrate_margin, get_classifier,
                       Novelty)  # fmt: skip
         classes = [str(c) for c in fitted.estimator.classes_]
-        for col in [*columns, *([None] if oof else [])]:
-            name = col.name if col else OUT_OF_FAMILY
-            records = tests[name] if col else oof
+        for col, name in [*((c, c.name) for c in columns), *((None, n) for n in oof)]:
+            records = tests[name] if col else oof[name]
             reason = _cannot_read(cand, records)
             if reason:
                 row["columns"][name] = {"accuracy": None, "reason": reason}
@@ -439,7 +523,7 @@ def _cannot_read(cand: Candidate, records: Sequence[GraspRecord]) -> str | None:
 
 def _summarise(row: dict[str, Any]) -> None:
     """The row's score (worst counted column), mean, and eligibility (rules 1-3)."""
-    cells = {k: v for k, v in row["columns"].items() if k != OUT_OF_FAMILY}
+    cells = {k: v for k, v in row["columns"].items() if k not in OUT_OF_FAMILY_SETS}
     counted = {k: v["accuracy"] for k, v in cells.items() if k not in row["seen"]}
     missing = sorted(k for k, v in counted.items() if v is None)
     values = [v for v in counted.values() if v is not None]
@@ -474,7 +558,8 @@ def table_text(rows: Sequence[Mapping[str, Any]], chosen: Mapping[str, Any] | No
     """The matrix as a Markdown table, best score first; ``*`` marks a column the method was
     chosen on (not counted), ``n/a`` one it cannot read."""
     names = [c for c in COLUMN_NAMES if any(c in r["columns"] for r in rows)]
-    head = ["method", "training", *names, "worst", "mean", "unknown (out of family)"]
+    head = ["method", "training", *names, "worst", "mean", "unknown: out of family",
+            "validation"]
     lines = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
     order = sorted(rows, key=lambda r: (r["score"] is None, -(r["score"] or 0), -(r["mean"] or 0)))
     for r in order:
@@ -486,13 +571,14 @@ def table_text(rows: Sequence[Mapping[str, Any]], chosen: Mapping[str, Any] | No
                 continue
             text = _pct(cell.get("accuracy"))
             cells.append(text + ("*" if c in r["seen"] else ""))
-        oof = r["columns"].get(OUT_OF_FAMILY)
+        oof = [r["columns"].get(n) for n in OUT_OF_FAMILY_SETS]
         name = r["method"] + (" (plugin)" if r["plugin"] else "")
         if chosen is not None and r is chosen:
             name = f"**{name}** (default)"
         lines.append("| " + " | ".join([name, r["training"], *cells, _pct(r["score"]),
                                           _pct(r["mean"]),
-                                          _pct(oof["unknown"]) if oof else ""]) + " |")  # fmt: skip
+                                          *(_pct(o["unknown"]) if o else "" for o in oof)])
+                     + " |")  # fmt: skip
     return "\n".join(lines) + "\n"
 
 

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import argparse
 import sys
+from pathlib import Path
 
 from ..errors import UsageError
 from .common import (
@@ -31,7 +32,13 @@ def add_parser(sub) -> None:
         "--protocol", metavar="NAME,...", default="all",
         help="in-distribution, unseen-sizes, unseen-poses, sensor-noise, sim-shift, "
         "coupling-shift, or all (those six, the default); cross-engine and mixed-engine "
-        "(bullet and mujoco) when named",
+        "(bullet and mujoco) when named; robustness alone: every candidate method on every "
+        "hand and condition, scored by its worst column (docs/robustness.md)",
+    )  # fmt: skip
+    parser.add_argument(
+        "--other-hand", action="append", metavar="NAME=FILE",
+        help="robustness: a hand written by others as a column (menagerie=FILE, "
+        "gymnasium=FILE: a model `convert-hand` wrote; repeatable or comma-separated)",
     )  # fmt: skip
     parser.add_argument("--descriptor", metavar="A,B", help="descriptors (default: all installed)")
     parser.add_argument("--classifier", metavar="X,Y", help="classifiers (default: all installed)")
@@ -70,6 +77,11 @@ def run(args: argparse.Namespace) -> int:
     from ..experiments.benchmark import default_classifiers, default_descriptors, run_benchmark
     from .compare import name_list
 
+    if "robustness" in [p.strip() for p in str(args.protocol).split(",")]:
+        return run_robustness(args)
+    if args.other_hand:
+        raise UsageError("--other-hand adds a column to --protocol robustness")
+
     if args.scale and args.quick and args.scale != "quick":
         raise UsageError(f"--quick contradicts --scale {args.scale}")
     scale = args.scale or ("quick" if args.quick else "full")
@@ -98,4 +110,43 @@ def run(args: argparse.Namespace) -> int:
     print(headline_table(doc["rows"]), end="")
     print(f"results: {args.out}/benchmark.json, figures: {', '.join(doc['figures']) or 'none'}")
     print(f"wall time: {doc['wall_time_s']:.0f} s")
+    return 0
+
+
+def run_robustness(args: argparse.Namespace) -> int:
+    """``benchmark --protocol robustness``: the matrix of docs/robustness.md."""
+    from ..experiments import robustness as R
+
+    if args.protocol.strip() != "robustness":
+        raise UsageError("--protocol robustness runs alone (it has its own sets and columns)")
+    if args.scale and args.quick and args.scale != "quick":
+        raise UsageError(f"--quick contradicts --scale {args.scale}")
+    for flag in ("engine", "hand_calibration"):
+        if getattr(args, flag, None):
+            raise UsageError(f"--{flag.replace('_', '-')} is not read by --protocol robustness: "
+                             "its columns name their own hands")  # fmt: skip
+    if args.training != "clean,noise-aware":
+        raise UsageError("--training is not read by --protocol robustness: every method is "
+                         "tried with each training it supports")  # fmt: skip
+    scale = args.scale or ("quick" if args.quick else "full")
+    hands = R.parse_hands(args.other_hand)
+    candidates = R.select_candidates(args.descriptor, args.classifier)
+    log = (lambda msg: print(msg, file=sys.stderr, flush=True)) if log_lines(args.json) else None
+    doc = R.run_robustness(args.out, scale=scale, workers=args.workers, seed=args.seed,
+                           cache=args.cache, hands=hands, candidates=candidates,
+                           show=show_progress(args.json), log=log)  # fmt: skip
+    if args.json:
+        emit_json(doc)
+        return 0
+    print((Path(args.out) / "table.md").read_text(), end="")
+    for column, why in doc["not_run"].items():
+        print(f"{column}: not run ({why})")
+    best = doc["default"]
+    if best is None:
+        print("no eligible method (docs/robustness.md, rule 3)")
+    else:
+        print(f"winner by the declared rule: {best['method']} ({best['training']}), worst "
+              f"column {100 * best['score']:.1f}%, mean {100 * best['mean']:.1f}%")  # fmt: skip
+    print(f"results: {args.out}/robustness.json, {args.out}/table.md; "
+          f"wall time {doc['wall_time_s']:.0f} s")  # fmt: skip
     return 0

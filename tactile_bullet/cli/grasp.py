@@ -186,7 +186,7 @@ def run(args: argparse.Namespace) -> int:
     }
     if video is not None:
         doc["video"] = {k: v for k, v in video.items() if k != "path"}
-    doc["answer"] = grasp_answer(doc["shape_fit"], signature)
+    doc["answer"] = grasp_answer(record, doc["shape_fit"], signature)
     if (mesh := mesh_block(shape)) is not None:
         doc["mesh"] = mesh
     if args.json:
@@ -198,21 +198,36 @@ def run(args: argparse.Namespace) -> int:
     return 0
 
 
-def grasp_answer(fit: dict | None, signature: dict | None) -> dict:
-    """The one answer of a grasp (docs/json.md ``answer``): the shape fit's where it fitted
-    (the better training-free identifier: 98.6% of the invariance grid's grasps against the
-    signature's 60.2%, docs/signature_invariance.md), else the signature's; the other
-    identifier's name is detail. None
-    where the grasp touched too little to carry a shape."""
+def grasp_answer(record, fit: dict | None, signature: dict | None) -> dict:
+    """The one answer of a grasp (docs/json.md ``answer``): the default identifier's
+    (:mod:`tactile_bullet.learn.default`, the robustness matrix's winner) with its doubt
+    (``ambiguous``, ``unknown``) and probabilities; the training-free identifiers' names are
+    ``others``, detail that may disagree. ``rotation_deg`` is the calibrated estimate of the
+    object's turn (the signature's line slope), None with ``rotation_withheld`` saying why.
+    No shape where the grasp touched too little."""
     by_signature = signature.get("identified") if signature else None
+    others = {"shape-fit": fit["shape"] if fit else None, "signature": by_signature}
+    rotation = signature.get("rotation_estimate_deg") if signature else None
+    withheld = None
+    if rotation is None:
+        withheld = (signature or {}).get("rotation_estimate_withheld") or "no signature"
     if signature and signature.get("reason"):  # touched too little: a fit of a fist says nothing
-        return {"shape": None, "identifier": None, "others": {}}
-    if fit is not None:
-        return {"shape": fit["shape"], "identifier": "shape-fit",
-                "others": {"signature": by_signature}}  # fmt: skip
-    if by_signature is not None:
-        return {"shape": by_signature, "identifier": "signature", "others": {"shape-fit": None}}
-    return {"shape": None, "identifier": None, "others": {}}
+        return {"shape": None, "identifier": None, "others": {}, "ambiguous": None,
+                "unknown": False, "rotation_deg": None,
+                "rotation_withheld": signature["reason"]}  # fmt: skip
+    from ..experiments.training import identify
+    from ..learn.default import default_meta, default_model
+
+    doc = identify(default_model(), record)
+    meta = default_meta()
+    return {
+        "shape": doc["shape"], "identifier": "default",
+        "method": {"name": meta.get("method"), "training": meta.get("training")},
+        "probabilities": doc["probabilities"], "margin": doc.get("margin"),
+        "ambiguous": doc.get("ambiguous"), "unknown": bool(doc.get("unknown")),
+        "novelty": doc.get("novelty"), "cross_check": doc.get("cross_check"),
+        "rotation_deg": rotation, "rotation_withheld": withheld, "others": others,
+    }  # fmt: skip
 
 
 def _signature_block(record) -> dict | None:
@@ -243,18 +258,24 @@ def _print_summary(doc: dict) -> None:
           f"rotation {doc['pose']['rotation_deg']:g} deg, {doc['mode']} mode, "
           f"{doc['engine']} engine")  # fmt: skip
     print(_answer_line(doc))
-    print("detail:")
+    answer = doc["answer"]
+    if answer["shape"] is not None:
+        if answer["rotation_deg"] is not None:
+            print(f"  object turned about {answer['rotation_deg']:.1f} deg (signature slope, "
+                  "calibrated)")  # fmt: skip
+        else:
+            print(f"  object's turn withheld: {answer['rotation_withheld']}")
+    print("detail (other identifiers, training-free; they may disagree with the answer):")
     sig = doc["signature"]
     if sig and sig.get("reason"):
         print(f"  signature: {sig['reason']}")
     elif sig:
-        print(f"  signature (DTW to the thesis patterns): {sig['identified']}, nearest pattern "
+        print(f"  signature, DTW to the thesis patterns: {sig['identified']}, nearest pattern "
               f"{sig['nearest_pattern']}, alpha {sig['alpha_deg']:.1f} deg")  # fmt: skip
-        est = sig.get("rotation_estimate_deg")
-        if est is not None:
-            print(f"  rotation estimate: {est:.1f} deg")
-        else:
-            print(f"  rotation estimate withheld: {sig['rotation_estimate_withheld']}")
+    fit = doc["shape_fit"]
+    if fit:
+        sizes = ", ".join(f"{k} {v * 1000:.1f} mm" for k, v in fit["params"].items())
+        print(f"  shape fit: {fit['shape']} ({sizes}, residual {fit['residual']:.3f} rad)")
     touching = ", ".join(doc["fingers_in_contact"]) or "none"
     print(f"  fingers in contact: {touching}")
     temporal = doc.get("temporal")
@@ -280,14 +301,17 @@ def _print_summary(doc: dict) -> None:
 
 
 def _answer_line(doc: dict) -> str:
-    """``identified: SHAPE by IDENTIFIER (...)``, the line the ``answer`` block prints as."""
+    """``identified: SHAPE by the default identifier (METHOD)``, with its doubt: the line
+    the ``answer`` block prints as; nothing below it is another answer, only detail."""
     answer = doc["answer"]
     if answer["shape"] is None:
         return "identified: nothing (the grasp touched too little)"
-    if answer["identifier"] == "shape-fit":
-        fit = doc["shape_fit"]
-        sizes = ", ".join(f"{k} {v * 1000:.1f} mm" for k, v in fit["params"].items())
-        how = f"the shape fit ({sizes}, residual {fit['residual']:.3f} rad)"
-    else:
-        how = "the signature (the shape fit could not fit the angles)"
-    return f"identified: {answer['shape']} by {how}"
+    how = f"the default identifier ({answer['method']['name']})"
+    if answer.get("unknown"):
+        return (f"identified: UNKNOWN - no family {how} knows explains this grasp "
+                f"(best guess {answer['shape']})")  # fmt: skip
+    p = answer["probabilities"].get(answer["shape"])
+    line = f"identified: {answer['shape']} by {how}" + (f", p={p:.2f}" if p is not None else "")
+    if answer.get("ambiguous"):
+        line += f" - AMBIGUOUS: {answer['ambiguous'][0]} or {answer['ambiguous'][1]}"
+    return line

@@ -27,7 +27,18 @@ def ambiguity_text(doc) -> str:
     pair = doc.get("ambiguous")
     if not pair:
         return ""
-    return f" - AMBIGUOUS: {pair[0]} or {pair[1]} (margin {doc['margin']:.3f})"
+    margin = doc.get("margin")
+    how = f" (margin {margin:.3f})" if margin is not None else ""
+    return f" - AMBIGUOUS: {pair[0]} or {pair[1]}{how}"
+
+
+def answer_text(doc) -> str:
+    """``SHAPE`` with what the model doubts: ``unknown (best guess SHAPE)`` where no family
+    it knows explains the grasp, and the ambiguity where two shapes are close."""
+    if doc.get("unknown"):
+        return (f"UNKNOWN: no family the model knows explains this grasp (best guess "
+                f"{doc['shape']})")  # fmt: skip
+    return f"{doc['shape']}{ambiguity_text(doc)}"
 
 
 def add_parser(sub) -> None:
@@ -37,7 +48,11 @@ def add_parser(sub) -> None:
         description="Identify the shape of one grasp: simulate a new one on --shape, or read "
         "a saved GraspRecord with --record, and print the model's answer and probabilities.",
     )
-    parser.add_argument("--model", required=True, help="model file written by `train`")
+    parser.add_argument(
+        "--model", metavar="FILE",
+        help="model file written by `train` or `adapt` (default: the built-in default "
+        "identifier, the robustness matrix's winner: docs/robustness.md)",
+    )  # fmt: skip
     source = parser.add_mutually_exclusive_group(required=True)
     source.add_argument("--shape", help="simulate a grasp on this shape")
     source.add_argument("--record", metavar="REC.npz", help="a saved grasp record")
@@ -93,13 +108,13 @@ def _record(args: argparse.Namespace):
 
 def run(args: argparse.Namespace) -> int:
     from ..experiments.training import identify
-    from ..learn.models import load_model
+    from ..learn.default import resolve_model
 
     if args.recording:
         return identify_recording(args)
     if args.calibration or args.marker or args.topic != "/joint_states" or args.gap != "0.5":
         raise UsageError("--topic, --marker, --gap and --calibration read a --recording")
-    model = load_model(args.model)
+    model = resolve_model(args.model)
     record = _record(args)
     doc = identify(model, record)
     doc["true_shape"] = record.shape
@@ -119,7 +134,7 @@ def run(args: argparse.Namespace) -> int:
     elif doc["shape"] is None:
         print(f"{doc['reason']} (grasped: {record.shape})")
     else:
-        print(f"identified: {doc['shape']}{ambiguity_text(doc)} (grasped: {record.shape})")
+        print(f"identified: {answer_text(doc)} (grasped: {record.shape})")
         ranked = sorted(doc["probabilities"].items(), key=lambda kv: -kv[1])
         for name, p in ranked:
             print(f"  {name:<20} {p:6.3f}")
@@ -130,7 +145,7 @@ def identify_recording(args: argparse.Namespace) -> int:
     """``identify --recording``: the shape of every grasp in a recording."""
     import time
 
-    from ..learn.models import load_model
+    from ..learn.default import resolve_model
     from ..realhand.recordings import identify_grasps, read_recording
 
     if args.param or args.offset != "0,0,0" or args.rotation != "0":
@@ -138,7 +153,7 @@ def identify_recording(args: argparse.Namespace) -> int:
             "--param, --offset and --rotation describe a new grasp: not with --recording"
         )
     options = recording_options(args)
-    model = load_model(args.model)
+    model = resolve_model(args.model)
     start = time.perf_counter()
     grasps = read_recording(args.recording, **options)
     read_s = time.perf_counter() - start
@@ -155,6 +170,7 @@ def identify_recording(args: argparse.Namespace) -> int:
     if len(answers) == 1:  # the one-grasp contract of `identify --json`
         doc["shape"], doc["probabilities"] = answers[0]["shape"], answers[0]["probabilities"]
         doc["margin"], doc["ambiguous"] = answers[0]["margin"], answers[0]["ambiguous"]
+        doc["unknown"] = answers[0].get("unknown", False)
     if args.json:
         emit_json(doc)
         return 0
@@ -163,6 +179,8 @@ def identify_recording(args: argparse.Namespace) -> int:
         label = f" (labelled {a['label']})" if a["label"] else ""
         doubt = (f" - AMBIGUOUS: {a['ambiguous'][0]} or {a['ambiguous'][1]}"
                  if a.get("ambiguous") else "")  # fmt: skip
+        if a.get("unknown"):
+            doubt = " - UNKNOWN: no family the model knows (best guess)"
         print(f"grasp {a['index'] + 1} at {a['start_s']:.2f}-{a['end_s']:.2f} s: "
               f"{a['shape']} p={best:.3f}{doubt}{label}")  # fmt: skip
     print(tally_line(doc["tally"]))
@@ -188,6 +206,7 @@ def recording_tally(answers: list[dict]) -> dict:
         "labelled": len(labelled),
         "correct": sum(a["shape"] == a["label"] for a in labelled) if labelled else None,
         "ambiguous": sum(a.get("ambiguous") is not None for a in answers),
+        "unknown": sum(bool(a.get("unknown")) for a in answers),
     }
 
 
@@ -198,6 +217,8 @@ def tally_line(tally: dict) -> str:
     line = f"{plural(tally['grasps'], 'grasp')}: {shapes}"
     if tally.get("ambiguous"):
         line += f"; {tally['ambiguous']} ambiguous"
+    if tally.get("unknown"):
+        line += f"; {tally['unknown']} unknown (no family)"
     if tally["labelled"]:
         line += (f"; {tally['correct']} of {plural(tally['labelled'], 'labelled grasp')} "
                  "named as labelled")  # fmt: skip

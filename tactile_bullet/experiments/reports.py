@@ -255,6 +255,14 @@ def summary_text(report: Mapping[str, Any]) -> str:
         warning = batch_warning(round(doubt["flagged"] * answers), answers)
         if warning:
             lines.append(warning)
+    unknown = report.get("unknown")
+    if unknown and unknown.get("threshold") is not None:
+        pct = lambda v: "-" if v is None else f"{100 * v:.0f}%"  # noqa: E731
+        lines.append(
+            f"unknown (no family the model knows): {pct(unknown['in_family'])} of "
+            f"{unknown['in_family_grasps']} grasps of its shapes, {pct(unknown['out_of_family'])} "
+            f"of {unknown['out_of_family_grasps']} grasps of other objects"
+        )
     for kind in ("by_size", "by_position", "by_rotation"):
         bins = report.get(kind)
         if bins:

@@ -161,6 +161,21 @@ SEEN: dict[str, tuple[str, ...]] = {
 left out of its score."""
 
 
+def select_candidates(descriptors: str | None, classifiers: str | None) -> list[Candidate]:
+    """The candidates whose descriptor and classifier are among the comma lists given (all
+    where None); a UsageError where none is left."""
+    def names(text):
+        return None if not text else {n.strip() for n in text.split(",") if n.strip()}
+
+    descs, clfs = names(descriptors), names(classifiers)
+    chosen = [c for c in CANDIDATES if (descs is None or c.descriptor in descs)
+              and (clfs is None or c.classifier in clfs)]  # fmt: skip
+    if not chosen:
+        raise UsageError("no candidate method of docs/robustness.md matches --descriptor "
+                         "and --classifier")  # fmt: skip
+    return chosen
+
+
 def seen_columns(candidate: Candidate, training: str) -> set[str]:
     """The columns that do not count toward this method's score."""
     return set(SEEN.get(candidate.descriptor, ())) | set(SEEN.get(training, ()))

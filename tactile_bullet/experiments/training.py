@@ -130,6 +130,9 @@ def train(
         # the ambiguity threshold, set on grasps each held out of a fit (learn/doubt.py)
         make = lambda: _estimator(classifier, params)  # noqa: E731
         info["doubt"] = model_doubt(make, x, y, records, classifier, reference)
+    novelty = _novelty(x, y)
+    if novelty is not None:
+        info["novelty"] = novelty.summary()
     return Model(
         descriptor=desc.name,
         descriptor_params=dict(desc.params),
@@ -138,7 +141,19 @@ def train(
         estimator=estimator,
         info=info,
         known=reference,
+        novelty=novelty,
     )
+
+
+def _novelty(x: np.ndarray, y: np.ndarray):
+    """The model's :class:`~tactile_bullet.learn.novelty.Novelty` (answers ``unknown`` where a
+    grasp lies far from every training grasp), None where too few grasps calibrate it."""
+    from ..learn.novelty import Novelty
+
+    try:
+        return Novelty.fit(x, y)
+    except ValueError:
+        return None
 
 
 def _estimator(classifier: str, params: Mapping[str, Any] | None):
@@ -193,6 +208,8 @@ def evaluate(model, records: Iterable[GraspRecord]) -> dict[str, Any]:
     from ..learn.doubt import evaluation_doubt
 
     doc["ambiguous"] = evaluation_doubt(model, records, y_true, y_pred, proba)
+    # grasps of no family the model knows, counted apart from the family's (learn/novelty.py)
+    doc["unknown"] = doc["ambiguous"].pop("unknown")
     unknown = sorted(set(y_true) - set(known))
     if unknown:
         doc["unknown_classes"] = unknown
@@ -229,7 +246,8 @@ def identify(model, record: GraspRecord) -> dict[str, Any]:
     reason = nothing_to_identify(record)
     if reason is not None:
         return {"shape": None, "reason": reason, "probabilities": {}, "margin": None,
-                "ambiguous": None, "cross_check": None}  # fmt: skip
+                "ambiguous": None, "cross_check": None, "unknown": False,
+                "novelty": None}  # fmt: skip
     classes = [str(c) for c in model.classes]
     names, proba = model.predict_with_proba([record])
     shape = str(names[0])

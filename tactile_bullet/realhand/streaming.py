@@ -111,24 +111,26 @@ class Identifier:
     @classmethod
     def load(
         cls,
-        model: str | os.PathLike | Any,
+        model: str | os.PathLike | Any = None,
         calibration: str | os.PathLike | Calibration | None = None,
         gap_s: float = GAP_S,
         cross_check: bool = True,
         hand_calibration: str | os.PathLike | Any = None,
     ) -> Identifier:
-        """An identifier for a saved model file (or a loaded Model); ``calibration`` a TOML
+        """An identifier for a saved model file (or a loaded Model; None or ``"default"``:
+        the built-in default identifier, docs/robustness.md); ``calibration`` a TOML
         path or a :class:`Calibration`; ``cross_check`` as in the constructor;
         ``hand_calibration`` the file ``tactile-bullet calibrate`` wrote (or its loaded
         coefficients)."""
-        from ..learn.models import load_model
         from .calibration import load_calibration
         from .hand_calibration import load as load_hand
 
         if isinstance(hand_calibration, str | os.PathLike):
             hand_calibration = load_hand(hand_calibration).calibration
-        if isinstance(model, str | os.PathLike):
-            model = load_model(model)
+        if model is None or isinstance(model, str | os.PathLike):
+            from ..learn.default import resolve_model
+
+            model = resolve_model(model)
         if isinstance(calibration, str | os.PathLike):
             calibration = load_calibration(calibration)
         return cls(model, calibration, gap_s, cross_check, hand_calibration)
@@ -273,8 +275,9 @@ class Identifier:
 
     def result(self) -> dict[str, Any]:
         """``shape`` (None until the grasp is over), ``probabilities`` (of the grasp so far),
-        ``margin``, ``ambiguous`` and ``cross_check`` (as in ``workflow.identify``; None until
-        the grasp is over: the shape fit's cross-check adds ~60 ms then), ``rotation_deg``
+        ``margin``, ``ambiguous``, ``cross_check``, ``unknown`` and ``novelty`` (as in
+        ``workflow.identify``; None until the grasp is over: the shape fit's cross-check adds
+        ~60 ms then), ``rotation_deg``
         (calibrated object rotation, None where unknown), ``grasp_over``,
         and ``samples`` (messages in the grasp)."""
         if self._cache is None:
@@ -289,12 +292,13 @@ class Identifier:
         record = self.current_record()
         if record is None:
             doc = {"shape": None, "probabilities": {}, "margin": None, "ambiguous": None,
-                   "cross_check": None, "rotation_deg": None, "grasp_over": False,
-                   "samples": 0}  # fmt: skip
+                   "cross_check": None, "unknown": False, "novelty": None,
+                   "rotation_deg": None, "grasp_over": False, "samples": 0}  # fmt: skip
         else:
             over = not seg.closing or seg.settled
             answer, probabilities = self._predict(record, decide=over)
-            doubt = {"margin": None, "ambiguous": None, "cross_check": None}
+            doubt = {"margin": None, "ambiguous": None, "cross_check": None, "unknown": False,
+                     "novelty": None}  # fmt: skip
             if over and answer is not None:
                 from ..learn.doubt import doubts
 

@@ -1,0 +1,104 @@
+"""Answers of no family (learn/novelty.py): ``unknown`` where a grasp lies far from every
+training grasp, calibrated to leave at most 5% of in-family grasps unknown, kept in model
+files and refused when damaged."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from tactile_bullet.errors import UsageError
+from tactile_bullet.experiments import workflow
+from tactile_bullet.learn import doubt
+from tactile_bullet.learn.models import load_model, save_model
+from tactile_bullet.learn.novelty import UNKNOWN_RATE, Novelty
+
+
+def _families(rng, n):
+    """Three well-separated 'families' in 6 features, their labels."""
+    centres = np.array([[0, 0, 0, 0, 0, 0], [4, 4, 0, 0, 0, 0], [0, 4, 4, 0, 0, 0]], float)
+    y = rng.integers(0, 3, n)
+    return centres[y] + rng.normal(0, 0.5, (n, 6)), y.astype(str)
+
+
+def test_at_most_the_calibrated_share_of_new_in_family_grasps_is_answered_unknown():
+    rng = np.random.default_rng(0)
+    x, y = _families(rng, 600)
+    novelty = Novelty.fit(x, y)
+    fresh, _ = _families(rng, 3000)
+    # held-out folds set the threshold; fresh grasps of the same families stay near the budget
+    assert np.mean(novelty.unknown(fresh)) <= 2 * UNKNOWN_RATE
+
+
+def test_a_grasp_far_from_every_family_is_unknown_and_one_inside_is_not():
+    rng = np.random.default_rng(1)
+    x, y = _families(rng, 300)
+    novelty = Novelty.fit(x, y)
+    far = np.array([[10.0, -6, 3, 5, -4, 2]])
+    inside = np.array([[4.0, 4, 0, 0, 0, 0]])
+    assert novelty.unknown(far)[0] and not novelty.unknown(inside)[0]
+    assert novelty.scores(far)[0] > novelty.threshold > novelty.scores(inside)[0]
+
+
+def test_a_feature_that_never_varied_in_training_does_not_make_every_grasp_unknown():
+    rng = np.random.default_rng(2)
+    x, y = _families(rng, 300)
+    x[:, 5] = 0.25  # a joint that stayed still in every training grasp
+    novelty = Novelty.fit(x, y)
+    nudged = x[:50].copy()
+    nudged[:, 5] += 0.01  # sensor noise on it
+    assert np.mean(novelty.unknown(nudged)) <= 0.1
+
+
+def test_trained_models_carry_novelty_through_a_save_and_answer_unknown(synthetic_split,
+                                                                          tmp_path):
+    train, test = synthetic_split
+    model = workflow.train(train, "raw-joints", "knn")
+    assert model.novelty is not None and model.info["novelty"]["rate"] == UNKNOWN_RATE
+    loaded = load_model(save_model(tmp_path / "m.npz", model))
+    assert loaded.novelty.threshold == pytest.approx(model.novelty.threshold)
+    doc = workflow.identify(loaded, test[0])
+    assert doc["unknown"] in (True, False) and doc["novelty"] >= 0
+    loaded.novelty = Novelty(loaded.novelty.centre, loaded.novelty.scale,
+                             loaded.novelty.reference, -1.0)  # every grasp is "far"
+    doc = workflow.identify(loaded, test[0])
+    assert doc["unknown"] is True and doc["shape"] in loaded.classes  # best guess still given
+
+
+@pytest.mark.parametrize(
+    "damage, message",
+    [
+        (lambda a: a.update({"novelty.reference": a["novelty.reference"][:, :2]}), "shape"),
+        (lambda a: a.update({"novelty.scale": -a["novelty.scale"]}), "scale"),
+        (lambda a: a.update({"novelty.centre": a["novelty.centre"] * np.nan}), "non-numbers"),
+        (lambda a: a.pop("novelty.reference"), "incomplete"),
+    ],
+)
+def test_a_model_with_damaged_novelty_is_refused(synthetic_split, tmp_path, damage, message):
+    train, _ = synthetic_split
+    path = save_model(tmp_path / "m.npz", workflow.train(train, "raw-joints", "knn",
+                                                         doubt=False))  # fmt: skip
+    with np.load(path, allow_pickle=False) as data:
+        arrays = {k: data[k] for k in data.files}
+    damage(arrays)
+    np.savez(tmp_path / "bad.npz", **arrays)
+    with pytest.raises(UsageError, match=f"novelty.*{message}|{message}.*novelty|{message}"):
+        load_model(tmp_path / "bad.npz")
+
+
+def test_evaluate_reports_the_unknown_share_in_and_out_of_family_apart(synthetic_split):
+    train, test = synthetic_split
+    shapes = sorted({r.shape for r in train})
+    model = workflow.train([r for r in train if r.shape != shapes[-1]], "raw-joints", "knn")
+    doc = workflow.evaluate(model, test)
+    unknown = doc["unknown"]
+    assert unknown["out_of_family_grasps"] == sum(r.shape == shapes[-1] for r in test)
+    assert unknown["in_family_grasps"] == len(test) - unknown["out_of_family_grasps"]
+    assert 0 <= unknown["in_family"] <= 1 and 0 <= unknown["out_of_family"] <= 1
+
+
+def test_an_answer_is_unknown_only_past_the_threshold():
+    kw = dict(classes=["a", "b"], shape="a", proba=np.array([0.9, 0.1]), threshold=0.1)
+    assert doubt.answer_doubt(**kw, novelty=2.0, novelty_threshold=1.0)["unknown"] is True
+    assert doubt.answer_doubt(**kw, novelty=0.5, novelty_threshold=1.0)["unknown"] is False
+    assert doubt.answer_doubt(**kw)["unknown"] is False  # an older model: never unknown

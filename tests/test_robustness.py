@@ -7,6 +7,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from tactile_bullet.errors import UsageError
 from tactile_bullet.experiments import robustness as R
 from tests.cli_helpers import run_error
 
@@ -119,3 +120,70 @@ def test_other_hand_is_refused_outside_the_robustness_protocol(tmp_path, capsys)
     err = run_error(capsys, ["benchmark", "--protocol", "sim-shift", "--other-hand",
                              "menagerie=x.xml", "--out", str(tmp_path / "b")])  # fmt: skip
     assert "--protocol robustness" in err
+
+
+def test_the_readme_cylinder_is_named_cylinder_with_the_shape_fits_dissent(capsys):
+    """README's first grasp: a 30 mm cylinder. The default identifier names it; the shape fit,
+    which rests on the four J3 angles, finds a turned cone as good and is shown as the doubt
+    (docs/robustness.md, root causes)."""
+    import json
+
+    from tactile_bullet.cli import main
+
+    assert main(["grasp", "--shape", "cylinder", "--param", "radius=0.03", "--json"]) == 0
+    answer = json.loads(capsys.readouterr().out)["answer"]
+    assert answer["shape"] == "cylinder" and answer["identifier"] == "default"
+    assert answer["others"]["shape-fit"] == "cone"
+    assert answer["ambiguous"] == ["cylinder", "cone"] and answer["unknown"] is False
+    assert main(["grasp", "--shape", "cylinder", "--param", "radius=0.03"]) == 0
+    first, *rest = [line for line in capsys.readouterr().out.splitlines() if line.strip()][1:]
+    assert first.startswith("identified: cylinder by the default identifier")
+    assert "AMBIGUOUS: cylinder or cone" in first
+    # the detail lines name their identifier: none reads as a second answer
+    assert not any(line.startswith("identified") for line in rest)
+    assert any(line.strip().startswith("shape fit: cone") for line in rest)
+
+
+def test_the_default_identifier_answers_identify_without_a_model(capsys):
+    import json
+
+    from tactile_bullet.cli import main
+
+    assert main(["identify", "--shape", "sphere", "--param", "radius=0.05", "--json"]) == 0
+    doc = json.loads(capsys.readouterr().out)
+    assert doc["shape"] == "sphere" and doc["unknown"] is False and doc["novelty"] >= 0
+
+
+def test_a_damaged_default_model_is_refused_never_used(tmp_path, monkeypatch, capsys):
+    from importlib import resources
+
+    from tactile_bullet.learn import default
+
+    real = resources.files("tactile_bullet.data")
+    for name in (default.MODEL_FILE, default.META_FILE):
+        (tmp_path / name).write_bytes((real / name).read_bytes())
+    blob = bytearray((tmp_path / default.MODEL_FILE).read_bytes())
+    blob[len(blob) // 2] ^= 0xFF
+    (tmp_path / default.MODEL_FILE).write_bytes(bytes(blob))
+    monkeypatch.setattr(default, "_data", lambda: tmp_path)
+    default.default_model.cache_clear()
+    try:
+        with pytest.raises(UsageError, match="damaged"):
+            default.default_model()
+        err = run_error(capsys, ["identify", "--shape", "sphere"])
+        assert "default model is damaged" in err
+    finally:
+        default.default_model.cache_clear()
+
+
+def test_the_shipped_default_is_the_matrix_winner_it_names():
+    from tactile_bullet.learn.default import default_meta, default_model
+
+    meta, model = default_meta(), default_model()
+    assert model.descriptor == meta["descriptor"] and model.classifier == meta["classifier"]
+    assert model.novelty is not None and model.doubt_margin is not None
+    assert sorted(model.classes) == sorted(R.SHAPES)
+    assert meta["score"] == min(v for k, v in meta["columns"].items()
+                                if v is not None and k not in R.seen_columns(
+                                    R.Candidate(meta["descriptor"], meta["classifier"]),
+                                    meta["training"]))  # fmt: skip

@@ -308,8 +308,8 @@ def _answer_line(doc: dict) -> str:
         return "identified: nothing (the grasp touched too little)"
     how = f"the default identifier ({answer['method']['name']})"
     if answer.get("unknown"):
-        return (f"identified: UNKNOWN - no family {how} knows explains this grasp "
-                f"(best guess {answer['shape']})")  # fmt: skip
+        return (f"identified: UNKNOWN - the grasp is unlike every grasp {how} learnt (an object "
+                f"of no family it knows, or a pose it never saw); best guess {answer['shape']}")
     p = answer["probabilities"].get(answer["shape"])
     line = f"identified: {answer['shape']} by {how}" + (f", p={p:.2f}" if p is not None else "")
     if answer.get("ambiguous"):

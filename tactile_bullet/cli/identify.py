@@ -36,8 +36,8 @@ def answer_text(doc) -> str:
     """``SHAPE`` with what the model doubts: ``unknown (best guess SHAPE)`` where no family
     it knows explains the grasp, and the ambiguity where two shapes are close."""
     if doc.get("unknown"):
-        return (f"UNKNOWN: no family the model knows explains this grasp (best guess "
-                f"{doc['shape']})")  # fmt: skip
+        return (f"UNKNOWN: the grasp is unlike every grasp the model learnt (an object of no "
+                f"family it knows, or a pose it never saw); best guess {doc['shape']}")
     return f"{doc['shape']}{ambiguity_text(doc)}"
 
 
@@ -180,7 +180,7 @@ def identify_recording(args: argparse.Namespace) -> int:
         doubt = (f" - AMBIGUOUS: {a['ambiguous'][0]} or {a['ambiguous'][1]}"
                  if a.get("ambiguous") else "")  # fmt: skip
         if a.get("unknown"):
-            doubt = " - UNKNOWN: no family the model knows (best guess)"
+            doubt = " - UNKNOWN: unlike every grasp the model learnt (best guess)"
         print(f"grasp {a['index'] + 1} at {a['start_s']:.2f}-{a['end_s']:.2f} s: "
               f"{a['shape']} p={best:.3f}{doubt}{label}")  # fmt: skip
     print(tally_line(doc["tally"]))

@@ -73,6 +73,7 @@ def test_identify_recording_names_every_grasp(capsys, files):
         "grasps": len(labels), "shapes": {s: list(want).count(s) for s in doc["tally"]["shapes"]},
         "labelled": len(labels), "correct": right,
         "ambiguous": sum(g["ambiguous"] is not None for g in doc["grasps"]),
+        "unknown": sum(g["unknown"] for g in doc["grasps"]),
     }  # fmt: skip
     assert sum(doc["tally"]["shapes"].values()) == len(labels)
     argv = ["identify", "--model", str(root / "model.npz"), "--recording", str(root / "test.bag")]

@@ -253,6 +253,27 @@ def input_path(
     return path
 
 
+def referenced_file(
+    folder: str | os.PathLike, name: str, owner: str, kind: str, what: str = "file"
+) -> Path:
+    """A file that an input names inside itself (a hand model's ``<include>`` or mesh, a
+    glTF's buffer), checked the one way: it lies inside ``folder``, the naming file's own
+    (an absolute name, ``..`` or a link that leads out of it is refused, so a model cannot make
+    the program read ``/etc/passwd`` or a file beside the user's home), and is an input of
+    ``kind`` (:func:`input_path`: a regular file, a FIFO never opened, at most its limit)."""
+    folder = Path(folder).resolve()
+    target = (folder / name).resolve()
+    if not target.is_relative_to(folder):
+        raise UsageError(
+            f"{owner}: {what} {name!r} lies outside the {kind.removesuffix(' file')}'s folder "
+            f"{folder}; every file it includes or references must sit in that folder or below"
+        )
+    why = not_a_file(target)
+    if why is not None:
+        raise UsageError(f"{owner}: {what} {name!r} {why}")
+    return input_path(target, kind)
+
+
 def read_input_text(path: str | os.PathLike, what: str, limit: int | None = None) -> str:
     """A checked input file's text (UTF-8), never more than its kind's limit read."""
     path = input_path(path, what, limit)

@@ -139,6 +139,10 @@ class ControllerSettings:
     hand_model: str | None = None
     """Another MJCF model of the Shadow hand for the ``mujoco`` engine (``--hand-model``, an
     absolute path; docs/engines.md lists what it must have). None: the project's own."""
+    hand_model_digest: str | None = None
+    """sha256 of ``hand_model``'s content and of every file it includes or references
+    (``mujoco_hand.model_digest``), taken when the settings were made: a grasp refuses a model
+    that changed since, and ``generate --resume`` refuses to mix two hands."""
 
     def __post_init__(self) -> None:
         if self.mode not in ("torque", "contact"):
@@ -175,6 +179,15 @@ class ControllerSettings:
             raise UsageError(f"controller engine must be an engine name, got {self.engine!r}")
         if self.hand_model is not None and not isinstance(self.hand_model, str):
             raise UsageError(f"controller hand_model must be a file path, got {self.hand_model!r}")
+        digest = self.hand_model_digest
+        if digest is not None and not (
+            isinstance(digest, str) and len(digest) == 64
+            and all(c in "0123456789abcdef" for c in digest) and self.hand_model is not None
+        ):  # fmt: skip
+            raise UsageError(
+                f"controller hand_model_digest must be a hand model's sha256 (64 hex digits, "
+                f"with hand_model), got {digest!r}"
+            )
         scale = self.phalanx_scale
         if isinstance(scale, bool) or not isinstance(scale, int | float) or not 0.8 <= scale <= 1.2:
             raise UsageError(f"controller phalanx_scale must be from 0.8 to 1.2, got {scale!r}")
@@ -247,6 +260,7 @@ PHYSICS_DEFAULTS: dict[str, float | bool | str | tuple | None] = {
     "contact_stiffness": 0.0,
     "engine": "bullet",
     "hand_model": None,
+    "hand_model_digest": None,
     "tendon_spring": 0.0,
     "servo_stiffness": 0.0,
 }
@@ -307,6 +321,8 @@ class GraspRecord:
             raise UsageError(
                 f"record source must be one of {', '.join(SOURCES)}, got {self.source!r}"
             )
+        if why := not_finite(self):
+            raise UsageError(why)
 
     @property
     def sim_time_s(self) -> float:
@@ -380,6 +396,26 @@ class GraspRecord:
             return False
         a, b = self.arrays(), other.arrays()
         return all(np.array_equal(a[k], b[k]) for k in a)
+
+
+FINITE_ARRAYS: tuple[str, ...] = (
+    "time", "angles", "efforts", "final_angles", "contact_position", "contact_normal",
+    "contact_force",
+)  # fmt: skip
+"""The arrays of a record that must hold finite numbers only."""
+
+
+def not_finite(record: GraspRecord) -> str | None:
+    """Why a record's numbers cannot be a grasp's (the first array holding NaN or an
+    infinity: physics that went wrong, e.g. a hand model's ``kp="nan"``), or None. Such a grasp
+    is a failed grasp with this reason, never a record: simulated, saved or loaded."""
+    for name in FINITE_ARRAYS:
+        values = np.asarray(getattr(record, name))
+        if values.dtype.kind in "fc" and not np.all(np.isfinite(values)):
+            what = name.replace("_", " ")
+            return (f"the grasp's {what} are not finite (NaN or infinite): its physics went "
+                    "wrong (a hand model's gains, masses or limits?); not a grasp")  # fmt: skip
+    return None
 
 
 def record_from_parts(meta: Mapping, arrays: Mapping[str, np.ndarray]) -> GraspRecord:

@@ -235,20 +235,13 @@ def file_sha256(path: Path, ext: str | None = None) -> str:
 
 
 def gltf_buffer(path: Path, uri: str) -> Path:
-    """The file a glTF buffer ``uri`` names, confined to the glTF's folder and checked as an
-    input; a UsageError for one outside it (absolute, ``..``, or through a link)."""
+    """The file a glTF buffer ``uri`` names, by the rule every file an input references keeps
+    (:func:`files.referenced_file`): inside the glTF's folder, a regular file of bounded size."""
     from urllib.parse import unquote
 
-    from ..files import input_path
+    from ..files import referenced_file
 
-    folder = path.parent.resolve()
-    target = (folder / unquote(uri)).resolve()
-    if not target.is_relative_to(folder):
-        raise UsageError(
-            f"{path.name}: buffer {uri!r} lies outside the mesh's folder {folder}; "
-            "a glTF's buffers must sit beside it"
-        )
-    return input_path(target, "mesh file")
+    return referenced_file(path.parent, unquote(uri), path.name, "mesh file", what="buffer")
 
 
 def _hash_file(path: Path, h, keep: bool) -> bytes:

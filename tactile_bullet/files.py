@@ -199,6 +199,9 @@ def read_toml(path: str | os.PathLike, what: str) -> dict[str, Any]:
     path = Path(path)
     try:
         return tomllib.loads(read_input_text(path, what))
+    except RecursionError:  # tomllib recurses once per nesting level: 1,000 arrays deep is out
+        raise UsageError(f"{path} is not valid TOML a {what} can be: its arrays or tables "
+                         "are nested too deep") from None  # fmt: skip
     except UnicodeDecodeError:
         raise UsageError(f"{path} is not a UTF-8 text file (TOML must be UTF-8)") from None
     except OSError as exc:

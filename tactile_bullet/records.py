@@ -150,7 +150,9 @@ class ControllerSettings:
         for name in ("delta", "thres_t", "max_time", "timestep", "sample_rate", "motor_force",
                      "friction"):  # fmt: skip
             value = getattr(self, name)
-            if not (isinstance(value, int | float) and math.isfinite(value) and value > 0):
+            if isinstance(value, bool) or not (
+                isinstance(value, int | float) and math.isfinite(value) and value > 0
+            ):  # a boolean is no number, though Python counts True as 1
                 raise UsageError(f"controller {name} must be a positive number, got {value!r}")
         if self.delta > 0.2:
             raise UsageError(f"controller delta {self.delta} rad per tick is too large (max 0.2)")

@@ -32,8 +32,14 @@ def test_an_existing_file_is_kept_unless_forced(tmp_path, capsys):
     assert "ball.ply exists" in err
     assert (out / "ball.ply").read_text() == "mine"
     assert not (out / "can.obj").exists()  # refused before anything was written
+    # --force replaces only what make-objects wrote there (issue 29): the user's file stays
+    err = run_error(capsys, ["make-objects", "--out", str(out), "--only", "ball", "--force"])
+    assert "ball.ply" in err and (out / "ball.ply").read_text() == "mine"
+    (out / "ball.ply").unlink()
+    assert main(["make-objects", "--out", str(out), "--only", "ball"]) == 0
+    before = (out / "ball.ply").read_bytes()
     assert main(["make-objects", "--out", str(out), "--only", "ball", "--force"]) == 0
-    assert (out / "ball.ply").read_bytes() != b"mine"
+    assert (out / "ball.ply").read_bytes() == before  # its own file: replaced
 
 
 def test_unknown_names_and_a_file_as_folder_are_refused(tmp_path, capsys):

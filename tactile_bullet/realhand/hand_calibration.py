@@ -154,8 +154,9 @@ def load(path: str | os.PathLike) -> HandCalibration:
         value = np.asarray(getattr(cal, name), float)
         if not np.all((value >= lo) & (value <= hi)):
             worst = value.flat[int(np.argmax(np.maximum(lo - value, value - hi)))]
-            raise UsageError(f"{where}: every {name} must be within {lo:g} to {hi:g}, got "
-                             f"{worst:g} (docs/calibration.md)")  # fmt: skip
+            span = f"{lo:g}-{hi:g}" if lo >= 0 else f"{lo:g} to {hi:g}"
+            raise UsageError(f"{where}: every {name} must be within {span}, got {worst:g} "
+                             "(docs/calibration.md)")  # fmt: skip
     from ..perception.shape_fit import fitted_shapes
 
     for name, offset in cal.family.items():

@@ -323,8 +323,8 @@ class GraspRecord:
             raise UsageError(
                 f"record source must be one of {', '.join(SOURCES)}, got {self.source!r}"
             )
-        if why := not_finite(self):
-            raise UsageError(why)
+        if self.source == "simulated" and (why := not_finite(self)):
+            raise UsageError(why)  # a recording's are checked, joint by joint, as it is read
 
     @property
     def sim_time_s(self) -> float:
@@ -415,6 +415,8 @@ def not_finite(record: GraspRecord) -> str | None:
         values = np.asarray(getattr(record, name))
         if values.dtype.kind in "fc" and not np.all(np.isfinite(values)):
             what = name.replace("_", " ")
+            if record.source != "simulated":
+                return f"the recording's {what} hold NaN or infinity: not a grasp's readings"
             return (f"the grasp's {what} are not finite (NaN or infinite): its physics went "
                     "wrong (a hand model's gains, masses or limits?); not a grasp")  # fmt: skip
     return None
@@ -427,7 +429,7 @@ def record_from_parts(meta: Mapping, arrays: Mapping[str, np.ndarray]) -> GraspR
             raise UsageError(f"record format {meta['format']} is not supported")
         pose = Pose(tuple(meta["pose"]["offset"]), meta["pose"]["rotation"])
         controller = ControllerSettings(**meta["controller"])
-        return GraspRecord(
+        record = GraspRecord(
             shape=str(meta["shape"]),
             params={k: float(v) for k, v in meta["params"].items()},
             pose=pose,
@@ -452,6 +454,9 @@ def record_from_parts(meta: Mapping, arrays: Mapping[str, np.ndarray]) -> GraspR
         raise
     except (KeyError, TypeError, ValueError) as exc:
         raise UsageError(f"not a valid grasp record ({type(exc).__name__}: {exc})") from None
+    if why := not_finite(record):  # a saved recording's too
+        raise UsageError(why)
+    return record
 
 
 def save_record(record: GraspRecord, path: str | Path) -> Path:

@@ -154,8 +154,9 @@ class ControllerSettings:
                 isinstance(value, int | float) and math.isfinite(value) and value > 0
             ):  # a boolean is no number, though Python counts True as 1
                 raise UsageError(f"controller {name} must be a positive number, got {value!r}")
-        if self.delta > 0.2:
-            raise UsageError(f"controller delta {self.delta} rad per tick is too large (max 0.2)")
+        if not MIN_DELTA <= self.delta <= 0.2:  # 1e-300 made the thumb's sweep 1e300 ticks
+            raise UsageError(f"controller delta {self.delta} rad per tick is out of range "
+                             f"({MIN_DELTA:g} to 0.2)")  # fmt: skip
         for flag in ("preshape", "early_stop"):
             if not isinstance(getattr(self, flag), bool | np.bool_):
                 raise UsageError(
@@ -196,6 +197,8 @@ class ControllerSettings:
         _check_variation(self)
 
 
+MIN_DELTA = 1e-4
+"""Smallest target step (rad per tick): at 240 Hz a joint's 90 deg take 65 s, past max_time."""
 COUPLINGS: tuple[str, ...] = ("j2-first", "equal-torque", "distal-first")
 """The J1/J2 tendon rules ``sim/coupling.py`` implements (``ControllerSettings.coupling``)."""
 OFFSET_JOINTS: tuple[str, ...] = tuple(j for f in LONG_FINGERS for j in FCI_JOINTS[f])

@@ -347,3 +347,12 @@ def test_an_obj_whose_material_file_is_a_fifo_is_read_without_opening_it(tmp_pat
     except subprocess.TimeoutExpired:
         pytest.fail("loading the OBJ opened its FIFO material file and hung")
     assert done.returncode == 0, done.stderr
+
+
+def test_a_controller_delta_too_small_to_close_the_hand_is_refused_before_any_grasp():
+    """Re-running item 13's class over every float of ``[controller]``: ``delta = 1e-300``
+    was accepted and made the thumb's sweep 1e300 ticks long (a hang)."""
+    from tactile_bullet.datasets.sweeps import Sweep
+
+    with pytest.raises(UsageError, match="delta 1e-300 rad per tick is out of range"):
+        Sweep.from_dict({"controller": {"delta": 1e-300}, "shapes": [{"name": "sphere"}]})

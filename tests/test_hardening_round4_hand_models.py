@@ -260,3 +260,15 @@ def test_a_grasp_refuses_a_hand_model_changed_since_its_settings_were_made(tmp_p
     path.write_text(OWN.replace('kp="20"', 'kp="15"', 1))
     with pytest.raises(UsageError, match="changed since"):
         simulate_grasp("sphere", None, Pose(), ctl)
+
+
+def test_a_grasp_made_from_python_keeps_its_hand_models_digest(tmp_path):
+    from tactile_bullet.records import ControllerSettings, Pose
+    from tactile_bullet.sim.engines.mujoco_hand import model_digest
+    from tactile_bullet.sim.grasp import simulate_grasp
+
+    path = split_hand(tmp_path / "m")
+    record = simulate_grasp("sphere", None, Pose(),
+                            ControllerSettings(engine="mujoco", hand_model=str(path)))  # fmt: skip
+    assert record.controller.hand_model_digest == model_digest(path)[0]
+    assert record.metadata()["controller"]["hand_model_digest"] == model_digest(path)[0]

@@ -54,18 +54,12 @@ def stamp_hand_model(controller, source: str):
     now; one it already carries must still be the model's (a UsageError names the file)."""
     if controller.hand_model is None:
         return controller
-    from ..sim.engines.mujoco_hand import model_digest
+    from ..sim.engines.mujoco_hand import with_digest
 
     try:
-        digest, _ = model_digest(controller.hand_model)
+        return with_digest(controller)
     except UsageError as exc:
         raise UsageError(f"{source}: {exc}") from None
-    if controller.hand_model_digest not in (None, digest):
-        raise UsageError(
-            f"{source}: hand model {controller.hand_model} changed since its digest "
-            f"{controller.hand_model_digest[:12]} was taken (now {digest[:12]})"
-        )
-    return replace(controller, hand_model_digest=digest)
 
 
 def with_engine(

@@ -115,6 +115,10 @@ def simulate_grasp(
     from ..plugins import get_engine
 
     ctl = controller or ControllerSettings()
+    if ctl.hand_model is not None and ctl.hand_model_digest is None:
+        from .engines.mujoco_hand import with_digest
+
+        ctl = with_digest(ctl)  # the record keeps what the hand was, not only where
     factory = get_engine(ctl.engine)
     if why := unread_knob(ctl, factory):
         raise UsageError(f"controller {why}")

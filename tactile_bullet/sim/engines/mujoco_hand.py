@@ -159,6 +159,23 @@ def model_digest(path: str | Path) -> tuple[str, dict[str, str]]:
     return whole.hexdigest(), each
 
 
+def with_digest(controller):
+    """``controller`` (``ControllerSettings``) carrying its hand model's content digest, taken
+    now where it has none; one it carries must still be the model's (a UsageError names the
+    file otherwise)."""
+    from dataclasses import replace
+
+    if controller.hand_model is None:
+        return controller
+    digest, _ = model_digest(controller.hand_model)
+    if controller.hand_model_digest not in (None, digest):
+        raise UsageError(
+            f"hand model {controller.hand_model} changed since its digest "
+            f"{controller.hand_model_digest[:12]} was taken (now {digest[:12]})"
+        )
+    return replace(controller, hand_model_digest=digest)
+
+
 def load_hand_spec(path: str | Path, digest: str | None = None):
     """The model at ``path`` as an MjSpec with its wrist welded; a UsageError naming the file
     or the first missing joint, actuator or the palm body, an actuator that drives another

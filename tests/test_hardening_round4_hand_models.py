@@ -54,7 +54,7 @@ def load_in_child(path: Path, timeout: float = 60.0) -> subprocess.CompletedProc
             "    print(e); sys.exit(2)\n")  # fmt: skip
     env = {**os.environ, "PYTHONPATH": str(REPO)}
     return subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
-                          timeout=timeout, env=env)  # fmt: skip
+                          timeout=timeout, env=env, cwd=path.parent)  # fmt: skip
 
 
 # --- item 8: FIFOs a model names are never opened ---------------------------------------------
@@ -84,7 +84,8 @@ def test_grasp_with_a_model_naming_a_fifo_exits_2_on_one_line(tmp_path):
     argv = [sys.executable, "-m", "tactile_bullet.cli", "grasp", "--shape", "sphere",
             "--hand-model", str(path)]  # fmt: skip
     try:
-        done = subprocess.run(argv, capture_output=True, text=True, timeout=60, env=env)
+        done = subprocess.run(argv, capture_output=True, text=True, timeout=60, env=env,
+                              cwd=tmp_path)  # fmt: skip
     except subprocess.TimeoutExpired:
         pytest.fail("grasp opened the FIFO the model includes and hung")
     assert done.returncode == 2 and "fifo.xml" in done.stderr and "FIFO" in done.stderr
@@ -148,7 +149,8 @@ def test_gltf_buffers_and_hand_model_includes_share_one_rule(tmp_path):
 # --- item 2: physics that went wrong is never a record ----------------------------------------
 
 
-def test_a_hand_model_with_nan_gains_is_refused_before_any_grasp(tmp_path, capsys):
+def test_a_hand_model_with_nan_gains_is_refused_before_any_grasp(tmp_path, capsys, monkeypatch):
+    monkeypatch.chdir(tmp_path)  # MuJoCo logs the NaN it reads into ./MUJOCO_LOG.TXT
     path = hand(tmp_path / "m", re.sub(r'kp="[^"]*"', 'kp="nan"', OWN))
     for argv in (["grasp", "--shape", "sphere"],
                  ["generate", "--preset", "smoke", "--out", str(tmp_path / "ds")]):  # fmt: skip

@@ -42,6 +42,8 @@ def atomic_path(
         os.replace(tmp, path)
         if durable:
             _fsync_dir(path.parent)
+        if path.absolute() in _PLANNED:
+            note_written(path)
     except OSError as exc:
         raise UsageError(f"cannot write {what} {path}: {exc.strerror or exc}") from None
     finally:
@@ -115,24 +117,94 @@ def _fsync_dir(folder: Path) -> None:
         os.close(fd)
 
 
+LEDGER = ".tactile-bullet-written.json"
+"""In a folder a command writes several named files into (a report, figures, example objects),
+the sha256 of each file as this project wrote it. ``--force`` replaces only a file the ledger
+vouches for: one it never wrote, or one changed since (a user's notes saved under the same name,
+an edited figure), is refused by name."""
+_PLANNED: set[Path] = set()
+"""Files :func:`existing_outputs` cleared for writing in this process: :func:`atomic_path` adds
+each to its folder's ledger once written."""
+
+
+def _sha256(path: Path) -> str | None:
+    import hashlib
+
+    h = hashlib.sha256()
+    try:
+        with open(path, "rb") as fh:
+            while block := fh.read(1 << 20):
+                h.update(block)
+    except OSError:
+        return None
+    return h.hexdigest()
+
+
+def _ledger(folder: Path) -> dict[str, str]:
+    import json
+
+    try:
+        doc = json.loads((folder / LEDGER).read_text(encoding="utf-8"))
+    except (OSError, ValueError):
+        return {}
+    files = doc.get("files") if isinstance(doc, dict) else None
+    return {str(k): str(v) for k, v in files.items()} if isinstance(files, dict) else {}
+
+
+def vouched(path: str | os.PathLike) -> bool:
+    """Whether ``path`` is a file this project wrote, unchanged since (its folder's ledger)."""
+    path = Path(path)
+    digest = _ledger(path.parent).get(path.name)
+    return digest is not None and _sha256(path) == digest
+
+
+def note_written(path: str | os.PathLike) -> None:
+    """Add ``path`` (just written) to its folder's ledger; a ledger that cannot be written
+    costs only the right to replace the file later with ``--force``."""
+    import json
+
+    path = Path(path)
+    files = _ledger(path.parent)
+    digest = _sha256(path)
+    if digest is None:
+        return
+    files[path.name] = digest
+    tmp = path.parent / f".{LEDGER}.{os.getpid()}.tmp"
+    try:
+        tmp.write_text(json.dumps({"written_by": "tactile-bullet", "files": files}, indent=1,
+                                  sort_keys=True), encoding="utf-8")  # fmt: skip
+        os.replace(tmp, path.parent / LEDGER)
+    except OSError:
+        tmp.unlink(missing_ok=True)
+
+
 def existing_outputs(
     folder: str | os.PathLike, names: Iterable[str], what: str, force: bool
 ) -> None:
     """Refuse (unless ``force``) a folder that already holds any of the files a command would
-    write there: an earlier report or figure is kept unless the user asks otherwise."""
+    write there: an earlier report or figure is kept unless the user asks otherwise. With
+    ``force``, only files this project wrote there and nobody changed since (:data:`LEDGER`)
+    are replaced; any other is refused by name, before any work."""
     folder = Path(folder)
+    names = list(names)
+    _PLANNED.update((folder / n).absolute() for n in names)
     if not folder.is_dir():
         return
     for name in names:
         refuse_special(folder / name, what)
-    if force:
-        return
     found = sorted(n for n in names if (folder / n).exists())
-    if found:
+    if found and not force:
         more = f" (and {len(found) - 1} more)" if len(found) > 1 else ""
         raise UsageError(
             f"{what} {folder} already holds {found[0]}{more} from an earlier run; "
             "add --force to overwrite, or choose another folder"
+        )
+    foreign = [n for n in found if not vouched(folder / n)]
+    if foreign:
+        raise UsageError(
+            f"{what} {folder} holds {foreign[0]}, which this project did not write there (or "
+            "which changed since): --force replaces only its own files; move it away or "
+            "choose another folder"
         )
 
 
@@ -199,6 +271,9 @@ def read_toml(path: str | os.PathLike, what: str) -> dict[str, Any]:
     path = Path(path)
     try:
         return tomllib.loads(read_input_text(path, what))
+    except RecursionError:  # tomllib recurses once per nesting level: 1,000 arrays deep is out
+        raise UsageError(f"{path} is not valid TOML a {what} can be: its arrays or tables "
+                         "are nested too deep") from None  # fmt: skip
     except UnicodeDecodeError:
         raise UsageError(f"{path} is not a UTF-8 text file (TOML must be UTF-8)") from None
     except OSError as exc:
@@ -253,6 +328,27 @@ def input_path(
     return path
 
 
+def referenced_file(
+    folder: str | os.PathLike, name: str, owner: str, kind: str, what: str = "file"
+) -> Path:
+    """A file that an input names inside itself (a hand model's ``<include>`` or mesh, a
+    glTF's buffer), checked the one way: it lies inside ``folder``, the naming file's own
+    (an absolute name, ``..`` or a link that leads out of it is refused, so a model cannot make
+    the program read ``/etc/passwd`` or a file beside the user's home), and is an input of
+    ``kind`` (:func:`input_path`: a regular file, a FIFO never opened, at most its limit)."""
+    folder = Path(folder).resolve()
+    target = (folder / name).resolve()
+    if not target.is_relative_to(folder):
+        raise UsageError(
+            f"{owner}: {what} {name!r} lies outside the {kind.removesuffix(' file')}'s folder "
+            f"{folder}; every file it includes or references must sit in that folder or below"
+        )
+    why = not_a_file(target)
+    if why is not None:
+        raise UsageError(f"{owner}: {what} {name!r} {why}")
+    return input_path(target, kind)
+
+
 def read_input_text(path: str | os.PathLike, what: str, limit: int | None = None) -> str:
     """A checked input file's text (UTF-8), never more than its kind's limit read."""
     path = input_path(path, what, limit)
@@ -273,12 +369,15 @@ def check_npz_members(
     allowed: Callable[[str], bool],
     member_limit: int,
     total_limit: int | None = None,
+    limits: dict[str, int] | None = None,
 ) -> None:
     """Refuse an ``.npz`` (a zip of ``.npy`` arrays) whose members are not all ``allowed`` or
     would decompress past ``member_limit`` bytes each (``total_limit`` together) before any
-    is decompressed; the UsageError reads "``what`` <problem>". Both the zip's declared size
-    and each array's own header (its shape times its item size) are checked: numpy allocates
-    what the header says, and a zip bomb declares small sizes and inflates to gigabytes.
+    is decompressed; the UsageError reads "``what`` <problem>". ``limits`` holds a lower limit
+    for some members by name (a model's known grasps: what ``train --known`` can write). Both
+    the zip's declared size and each array's own header (its shape times its item size) are
+    checked: numpy allocates what the header says, and a zip bomb declares small sizes and
+    inflates to gigabytes.
     A source that is no zip archive at all is left to the loader, which says why."""
     import io
     import zipfile
@@ -295,10 +394,11 @@ def check_npz_members(
                 if not info.filename.endswith(".npy") or not allowed(name):
                     raise UsageError(f"{what} holds an unexpected member {info.filename!r}")
                 total += info.file_size
-                if info.file_size > member_limit:
+                bound = min(member_limit, (limits or {}).get(name, member_limit))
+                if info.file_size > bound:
                     raise UsageError(
                         f"{what} has a member {info.filename!r} that declares "
-                        f"{info.file_size:,} bytes, over the {member_limit:,}-byte limit"
+                        f"{info.file_size:,} bytes, over the {bound:,}-byte limit"
                     )
                 if total > total_limit:
                     raise UsageError(f"{what} declares {total:,} bytes in all, over the "

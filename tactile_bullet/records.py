@@ -139,6 +139,10 @@ class ControllerSettings:
     hand_model: str | None = None
     """Another MJCF model of the Shadow hand for the ``mujoco`` engine (``--hand-model``, an
     absolute path; docs/engines.md lists what it must have). None: the project's own."""
+    hand_model_digest: str | None = None
+    """sha256 of ``hand_model``'s content and of every file it includes or references
+    (``mujoco_hand.model_digest``), taken when the settings were made: a grasp refuses a model
+    that changed since, and ``generate --resume`` refuses to mix two hands."""
 
     def __post_init__(self) -> None:
         if self.mode not in ("torque", "contact"):
@@ -146,10 +150,13 @@ class ControllerSettings:
         for name in ("delta", "thres_t", "max_time", "timestep", "sample_rate", "motor_force",
                      "friction"):  # fmt: skip
             value = getattr(self, name)
-            if not (isinstance(value, int | float) and math.isfinite(value) and value > 0):
+            if isinstance(value, bool) or not (
+                isinstance(value, int | float) and math.isfinite(value) and value > 0
+            ):  # a boolean is no number, though Python counts True as 1
                 raise UsageError(f"controller {name} must be a positive number, got {value!r}")
-        if self.delta > 0.2:
-            raise UsageError(f"controller delta {self.delta} rad per tick is too large (max 0.2)")
+        if not MIN_DELTA <= self.delta <= 0.2:  # 1e-300 made the thumb's sweep 1e300 ticks
+            raise UsageError(f"controller delta {self.delta} rad per tick is out of range "
+                             f"({MIN_DELTA:g} to 0.2)")  # fmt: skip
         for flag in ("preshape", "early_stop"):
             if not isinstance(getattr(self, flag), bool | np.bool_):
                 raise UsageError(
@@ -175,12 +182,23 @@ class ControllerSettings:
             raise UsageError(f"controller engine must be an engine name, got {self.engine!r}")
         if self.hand_model is not None and not isinstance(self.hand_model, str):
             raise UsageError(f"controller hand_model must be a file path, got {self.hand_model!r}")
+        digest = self.hand_model_digest
+        if digest is not None and not (
+            isinstance(digest, str) and len(digest) == 64
+            and all(c in "0123456789abcdef" for c in digest) and self.hand_model is not None
+        ):  # fmt: skip
+            raise UsageError(
+                f"controller hand_model_digest must be a hand model's sha256 (64 hex digits, "
+                f"with hand_model), got {digest!r}"
+            )
         scale = self.phalanx_scale
         if isinstance(scale, bool) or not isinstance(scale, int | float) or not 0.8 <= scale <= 1.2:
             raise UsageError(f"controller phalanx_scale must be from 0.8 to 1.2, got {scale!r}")
         _check_variation(self)
 
 
+MIN_DELTA = 1e-4
+"""Smallest target step (rad per tick): at 240 Hz a joint's 90 deg take 65 s, past max_time."""
 COUPLINGS: tuple[str, ...] = ("j2-first", "equal-torque", "distal-first")
 """The J1/J2 tendon rules ``sim/coupling.py`` implements (``ControllerSettings.coupling``)."""
 OFFSET_JOINTS: tuple[str, ...] = tuple(j for f in LONG_FINGERS for j in FCI_JOINTS[f])
@@ -247,6 +265,7 @@ PHYSICS_DEFAULTS: dict[str, float | bool | str | tuple | None] = {
     "contact_stiffness": 0.0,
     "engine": "bullet",
     "hand_model": None,
+    "hand_model_digest": None,
     "tendon_spring": 0.0,
     "servo_stiffness": 0.0,
 }
@@ -307,6 +326,8 @@ class GraspRecord:
             raise UsageError(
                 f"record source must be one of {', '.join(SOURCES)}, got {self.source!r}"
             )
+        if self.source == "simulated" and (why := not_finite(self)):
+            raise UsageError(why)  # a recording's are checked, joint by joint, as it is read
 
     @property
     def sim_time_s(self) -> float:
@@ -382,6 +403,28 @@ class GraspRecord:
         return all(np.array_equal(a[k], b[k]) for k in a)
 
 
+FINITE_ARRAYS: tuple[str, ...] = (
+    "time", "angles", "efforts", "final_angles", "contact_position", "contact_normal",
+    "contact_force",
+)  # fmt: skip
+"""The arrays of a record that must hold finite numbers only."""
+
+
+def not_finite(record: GraspRecord) -> str | None:
+    """Why a record's numbers cannot be a grasp's (the first array holding NaN or an
+    infinity: physics that went wrong, e.g. a hand model's ``kp="nan"``), or None. Such a grasp
+    is a failed grasp with this reason, never a record: simulated, saved or loaded."""
+    for name in FINITE_ARRAYS:
+        values = np.asarray(getattr(record, name))
+        if values.dtype.kind in "fc" and not np.all(np.isfinite(values)):
+            what = name.replace("_", " ")
+            if record.source != "simulated":
+                return f"the recording's {what} hold NaN or infinity: not a grasp's readings"
+            return (f"the grasp's {what} are not finite (NaN or infinite): its physics went "
+                    "wrong (a hand model's gains, masses or limits?); not a grasp")  # fmt: skip
+    return None
+
+
 def record_from_parts(meta: Mapping, arrays: Mapping[str, np.ndarray]) -> GraspRecord:
     """Rebuild a record from ``metadata()`` and ``arrays()`` (as saved), validating both."""
     try:
@@ -389,7 +432,7 @@ def record_from_parts(meta: Mapping, arrays: Mapping[str, np.ndarray]) -> GraspR
             raise UsageError(f"record format {meta['format']} is not supported")
         pose = Pose(tuple(meta["pose"]["offset"]), meta["pose"]["rotation"])
         controller = ControllerSettings(**meta["controller"])
-        return GraspRecord(
+        record = GraspRecord(
             shape=str(meta["shape"]),
             params={k: float(v) for k, v in meta["params"].items()},
             pose=pose,
@@ -414,6 +457,9 @@ def record_from_parts(meta: Mapping, arrays: Mapping[str, np.ndarray]) -> GraspR
         raise
     except (KeyError, TypeError, ValueError) as exc:
         raise UsageError(f"not a valid grasp record ({type(exc).__name__}: {exc})") from None
+    if why := not_finite(record):  # a saved recording's too
+        raise UsageError(why)
+    return record
 
 
 def save_record(record: GraspRecord, path: str | Path) -> Path:

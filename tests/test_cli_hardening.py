@@ -122,6 +122,11 @@ def test_evaluate_keeps_an_earlier_report_unless_forced(data, capsys, tmp_path):
     argv = ["evaluate", "--model", str(model), "--data", str(train), "--report", str(tmp_path)]
     assert "report.json" in run_error(capsys, argv)
     assert json.loads((tmp_path / "report.json").read_text()) == {"earlier": True}
+    # --force replaces only a report this project wrote there (issue 29): not the user's
+    assert "report.json" in run_error(capsys, [*argv, "--force"])
+    assert json.loads((tmp_path / "report.json").read_text()) == {"earlier": True}
+    (tmp_path / "report.json").unlink()
+    assert main(argv) == 0
     assert main([*argv, "--force"]) == 0
     assert "accuracy" in json.loads((tmp_path / "report.json").read_text())
 

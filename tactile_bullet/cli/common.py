@@ -118,10 +118,11 @@ def engine_settings(args: argparse.Namespace) -> dict[str, str]:
         if engine not in (None, "mujoco"):
             raise UsageError(f"--hand-model is an MJCF model: not with --engine {engine}")
         engine = engine_name(argparse.Namespace(engine="mujoco"))
-        from ..sim.engines.mujoco_hand import load_hand_spec
+        from ..sim.engines.mujoco_hand import load_hand_spec, model_digest
 
         load_hand_spec(model)
         out["hand_model"] = str(Path(model).resolve())
+        out["hand_model_digest"] = model_digest(model)[0]
     if engine is not None:
         out["engine"] = engine
     return out

@@ -63,7 +63,10 @@ def run(args: argparse.Namespace) -> int:
     known = read_data(args.known, args) if args.known else None
     fit_on = training_records(records, args.training)
     if known is not None:
-        fit_on = with_known(fit_on, known.records, args.training)
+        from ..plugins import get_descriptor
+
+        desc = get_descriptor(args.descriptor, **descriptor_params)
+        fit_on = with_known(fit_on, known.records, args.training, descriptor=desc)
     start = time.perf_counter()
     model = train(
         fit_on, args.descriptor, args.classifier, params, descriptor_params,

@@ -88,7 +88,19 @@ def load_dataset(
     """
     from ..plugins import get_descriptor
 
-    if as_frame not in (False, True, "columns"):
+    if not isinstance(path, str | os.PathLike) or isinstance(path, bytes):
+        raise UsageError(f"load_dataset path must be a path (str or os.PathLike), got "
+                         f"{type(path).__name__}")  # fmt: skip
+    if not isinstance(descriptor, str):
+        raise UsageError(f"load_dataset descriptor must be a name (str), got "
+                         f"{type(descriptor).__name__}")  # fmt: skip
+    if descriptor_params is not None and not isinstance(descriptor_params, Mapping):
+        raise UsageError(f"load_dataset descriptor_params must be a mapping of names to "
+                         f"values, got {type(descriptor_params).__name__}")  # fmt: skip
+    if not isinstance(allow_partial, bool):
+        raise UsageError(f"load_dataset allow_partial must be True or False, got "
+                         f"{allow_partial!r}")  # fmt: skip
+    if isinstance(as_frame, bool | str) is False or as_frame not in (False, True, "columns"):
         raise UsageError(f"as_frame must be False, True or 'columns', got {as_frame!r}")
     if as_frame is True:
         try:

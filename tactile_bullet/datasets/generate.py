@@ -60,6 +60,7 @@ def _open_out(
         except UsageError as exc:
             raise UsageError(f"{exc}; refusing to resume or overwrite it") from None
         existing = data["config"]
+        _same_hand(out, existing, config, data.get("hand_model_files"))
         if existing != config:
             differs = [k for k in config if existing.get(k) != config[k]] or ["config"]
             shown = {"sweep": f"sweep {existing.get('sweep', {}).get('name')!r}"}
@@ -99,12 +100,52 @@ def _open_out(
             "config": config,
             "tasks": n_tasks,
             "software": software_versions(),
+            **_hand_files(sweep),
             "shards": [],
             "failed": [],
         },
     )
     manifest.save()
     return manifest, []
+
+
+def _hand_files(sweep: Sweep) -> dict[str, Any]:
+    """``{"hand_model_files": {name: sha256}}``: each file of the sweep's hand model, kept in
+    the manifest so that ``--resume`` can name the one that changed (none: nothing)."""
+    if sweep.controller.hand_model is None:
+        return {}
+    from ..sim.engines.mujoco_hand import model_digest
+
+    return {"hand_model_files": model_digest(sweep.controller.hand_model)[1]}
+
+
+def _same_hand(out: Path, existing: Mapping, config: Mapping, files: Mapping | None) -> None:
+    """Refuse to resume a dataset whose hand model changed since it was started (the model
+    file, or a file it includes or references), naming what changed: the rest of its grasps
+    would come from another hand."""
+    old = existing.get("sweep", {}).get("controller", {})
+    new = config["sweep"].get("controller", {})
+    if old.get("hand_model") != new.get("hand_model") or new.get("hand_model") is None:
+        return
+    if old.get("hand_model_digest") == new.get("hand_model_digest"):
+        return
+    model = new["hand_model"]
+    if old.get("hand_model_digest") is None:
+        raise UsageError(
+            f"{out} was started with hand model {model} before datasets kept its content "
+            "digest: whether it changed since cannot be told; choose another --out"
+        )
+    from ..sim.engines.mujoco_hand import model_digest
+
+    now = model_digest(model)[1]
+    files = dict(files or {})
+    changed = sorted(n for n in set(now) | set(files) if now.get(n) != files.get(n))
+    named = ", ".join(changed[:3]) + (f" and {len(changed) - 3} more" if len(changed) > 3 else "")
+    raise UsageError(
+        f"{out} was made with another hand: hand model {model} changed since the dataset was "
+        f"started ({named or 'its content'}); resuming would mix two hands - choose another "
+        "--out, or restore the model"
+    )
 
 
 def _state(good: Sequence[Mapping], problems: Sequence[Problem], n_tasks: int) -> str:

@@ -184,9 +184,12 @@ class Randomization:
                 changes[key] = round(float(values[key]), 6)
         every = base.control_every
         if values["control_rate"] is not None:
-            rate = float(values["control_rate"])
-            if rate <= 0:
-                raise UsageError(f"[randomize] control_rate must be positive Hz, got {rate:g}")
+            rate, top = float(values["control_rate"]), 1.0 / base.timestep
+            if not 0 < rate <= top * (1 + 1e-9):  # never clamped silently to one tick a step
+                raise UsageError(
+                    f"[randomize] control_rate must be above 0 Hz and at most one tick per "
+                    f"physics step ({top:g} Hz at the [controller] timestep), got {rate:g}"
+                )
             every = max(1, round(1.0 / (rate * base.timestep)))
             changes["control_every"] = every
         speed = values["closing_speed"]

@@ -49,14 +49,31 @@ def check_engine(controller, source: str, load_model: bool = True) -> None:
         raise UsageError(f"{source}: {exc}") from None
 
 
-def with_engine(sweep, engine: str, hand_model: str | None = None):
+def stamp_hand_model(controller, source: str):
+    """``controller`` with its hand model's content digest (``hand_model_digest``), taken
+    now; one it already carries must still be the model's (a UsageError names the file)."""
+    if controller.hand_model is None:
+        return controller
+    from ..sim.engines.mujoco_hand import with_digest
+
+    try:
+        return with_digest(controller)
+    except UsageError as exc:
+        raise UsageError(f"{source}: {exc}") from None
+
+
+def with_engine(
+    sweep, engine: str, hand_model: str | None = None, hand_model_digest: str | None = None
+):
     """The sweep simulated with another physics engine (``generate --engine``) and, for
-    mujoco, another hand model (``--hand-model``)."""
+    mujoco, another hand model (``--hand-model``, with its content digest)."""
     drawn = getattr(sweep.randomize, "engine", None)
     if drawn is not None:
         raise UsageError(f"--engine {engine} contradicts the sweep's [randomize] engine draw "
                          f"({', '.join(drawn)}): leave out one of them")
     settings = {"engine": engine} | ({"hand_model": hand_model} if hand_model else {})
+    if hand_model:
+        settings["hand_model_digest"] = hand_model_digest
     controller = replace(sweep.controller, **settings)
     check_engine(controller, "--engine", load_model=False)  # generate's flags loaded it
     if sweep.randomize is not None:  # its knobs were checked against the sweep's own engine

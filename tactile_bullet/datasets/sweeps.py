@@ -31,7 +31,7 @@ from ..records import (
     Pose,
     controller_dict,
 )
-from .sweep_engines import check_engine, merge_engine
+from .sweep_engines import check_engine, merge_engine, stamp_hand_model
 from .sweep_values import numbers_or_range
 
 if TYPE_CHECKING:
@@ -130,6 +130,7 @@ class Sweep:
         except (TypeError, ValueError) as exc:  # UsageError is a ValueError
             raise UsageError(f"{source}: [controller] {exc}") from None
         check_engine(controller, source)
+        controller = stamp_hand_model(controller, source)
         randomize = None
         if "randomize" in data:
             from .randomize import Randomization

@@ -42,17 +42,13 @@ def output_paths(out: str | os.PathLike) -> list[Path]:
 
 def check_outputs(out: str | os.PathLike, force: bool) -> Path:
     """The output folder, created; a UsageError (before any work) if it holds one of our files
-    and ``force`` is off."""
+    and ``force`` is off, or, with it, a file this project did not write there
+    (``files.existing_outputs``)."""
+    from ..files import existing_outputs
     from .reports import report_dir
 
-    folder = report_dir(out)
-    existing = [p.name for p in output_paths(folder) if p.exists()]
-    if existing and not force:
-        raise UsageError(
-            f"{folder} already holds {', '.join(existing[:3])}"
-            f"{' ...' if len(existing) > 3 else ''}: pass --force to overwrite"
-        )
-    return folder
+    existing_outputs(out, (*FIGURES, SUMMARY), "--out folder", force)
+    return report_dir(out)
 
 
 def detector_scores(records: Sequence) -> dict[str, Any]:

@@ -232,6 +232,8 @@ class ContactNormalsDescriptor:
 
     include_thumb: bool = True
     name: ClassVar[str] = "contact-normals"
+    reads_contacts: ClassVar[bool] = True
+    """Its features come from the grasp's contacts, which a real hand's recording lacks."""
 
     def __post_init__(self) -> None:
         if not isinstance(self.include_thumb, bool | np.bool_):
@@ -270,6 +272,10 @@ class ConcatDescriptor:
     @property
     def name(self) -> str:
         return "+".join(p.name for p in self.parts)
+
+    @property
+    def reads_contacts(self) -> bool:
+        return any(getattr(p, "reads_contacts", False) for p in self.parts)
 
     @property
     def params(self) -> dict:

@@ -55,6 +55,11 @@ KNOWN_DESCRIPTOR = "signature+coupled-joints"
 absolute joint angles, J1 + J2 read together so no J1/J2 split is assumed."""
 
 
+MAX_KNOWN_GRASPS = 100_000
+"""Most known grasps a model keeps (``train --known``): ~30 MB of features. A model file whose
+``known.*`` arrays declare more is refused before they are read (``models.KNOWN_MEMBER_LIMIT``)."""
+
+
 @dataclass(frozen=True)
 class KnownGrasps:
     """Grasps of the user's hand whose shapes are known, kept in a model file to second its
@@ -70,10 +75,26 @@ class KnownGrasps:
 
     @classmethod
     def from_records(cls, records: Sequence, descriptor: str = KNOWN_DESCRIPTOR) -> KnownGrasps:
+        from ..errors import UsageError
         from ..plugins import get_descriptor
 
         x = np.asarray(get_descriptor(descriptor).transform(list(records)), dtype=float)
-        return cls(x, np.array([str(r.shape) for r in records]), descriptor)
+        known = cls(x, np.array([str(r.shape) for r in records]), descriptor)
+        if len(records) > MAX_KNOWN_GRASPS:
+            raise UsageError(f"--known holds {len(records):,} grasps; at most "
+                             f"{MAX_KNOWN_GRASPS:,} can second a model's answers")  # fmt: skip
+        if not known.varies():
+            raise UsageError(
+                f"--known: the known grasps' {descriptor} features do not vary among them, so "
+                "no known grasp could be told nearer than another and the check of answers "
+                "would be off; give grasps of at least two shapes"
+            )
+        return known
+
+    def varies(self) -> bool:
+        """Whether any feature varies among the known grasps (none: the check is off)."""
+        x = np.asarray(self.features, dtype=float)
+        return x.ndim == 2 and len(x) > 1 and bool(np.any(x.std(axis=0) > 1e-9))
 
     def _scaled(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         mean, spread = self.features.mean(axis=0), self.features.std(axis=0)
@@ -115,6 +136,11 @@ class KnownGrasps:
             raise ValueError("known grasps' features and labels do not match")
         if not np.all(np.isfinite(x)):
             raise ValueError("known grasps' features are not finite")
+        if len(y) > MAX_KNOWN_GRASPS:
+            raise ValueError(f"it holds {len(y):,} known grasps, over the {MAX_KNOWN_GRASPS:,} "
+                             "train --known writes")  # fmt: skip
+        if not self.varies():
+            raise ValueError("its known grasps' features do not vary: they cannot second answers")
         extra = {str(v) for v in y} - {str(c) for c in classes}
         if extra:
             raise ValueError(f"a known grasp is a {sorted(extra)[0]!r}, not one of its classes")

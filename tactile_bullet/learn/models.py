@@ -199,6 +199,12 @@ MODEL_MEMBER_LIMIT = 1 << 30
 a million grasps holds ~200 MB of support vectors)."""
 
 
+KNOWN_MEMBER_LIMIT = 64 << 20
+"""The most bytes a model's ``known.features`` or ``known.labels`` may hold: above what
+``train --known`` writes for :data:`doubt.MAX_KNOWN_GRASPS` grasps (35 features of 8 bytes, a
+label of 20 characters), far below what a damaged or hostile file could declare."""
+
+
 def _is_model_member(name: str) -> bool:
     return name in (
         "meta", "estimator_state", "estimator_skops", _KNOWN_FEATURES, _KNOWN_LABELS,
@@ -211,7 +217,9 @@ def _read(path: Path) -> tuple[dict, dict[str, np.ndarray]]:
 
     input_path(path, "model file")
     try:
-        check_npz_members(path, str(path), _is_model_member, MODEL_MEMBER_LIMIT)
+        check_npz_members(path, str(path), _is_model_member, MODEL_MEMBER_LIMIT,
+                          limits={_KNOWN_FEATURES: KNOWN_MEMBER_LIMIT,
+                                  _KNOWN_LABELS: KNOWN_MEMBER_LIMIT})  # fmt: skip
     except UsageError as exc:
         why = str(exc).removeprefix(f"{path} ")
         raise UsageError(f"{path} is not a tactile-bullet model ({why})") from None
@@ -334,7 +342,10 @@ def _load_known(path: Path, meta: dict, contents: dict[str, np.ndarray], classes
         known.check(classes)
         from .. import plugins
 
-        plugins.get_descriptor(descriptor)
+        columns = len(plugins.get_descriptor(descriptor).feature_names())
+        if features.shape[1] != columns:
+            raise UsageError(f"its known grasps have {features.shape[1]} features, and "
+                             f"{descriptor} gives {columns}")  # fmt: skip
     except (ValueError, UsageError) as exc:
         raise UsageError(f"{path} is not a valid model: {exc}") from None
     return known

@@ -14,6 +14,7 @@ The benchmark's trainings of the same names (``experiments/benchmark.py``) are t
 from __future__ import annotations
 
 from collections.abc import Sequence
+from typing import Any
 
 from ..errors import UsageError
 from ..records import GraspRecord, controller_dict
@@ -65,15 +66,29 @@ def training_records(
 
 
 def with_known(
-    fit_on: Sequence[GraspRecord], known: Sequence[GraspRecord], training: str, seed: int = 0
+    fit_on: Sequence[GraspRecord],
+    known: Sequence[GraspRecord],
+    training: str,
+    seed: int = 0,
+    descriptor: Any = None,
 ) -> list[GraspRecord]:
     """``fit_on`` (a regime's records) with grasps of the user's own hand whose shapes are known
     added (``train --known``): the model then learns that hand beside the simulated ones.
     They are read like the rest (``noise-aware`` augments them too) but never checked as a
-    randomised dataset; each of their shapes must be one the training data has."""
+    randomised dataset; each of their shapes must be one the training data has. A
+    ``descriptor`` that reads contacts (``contact-normals``) is refused with recordings of a
+    real hand, which carry none: their vectors would all be zero."""
     known = list(known)
     if not known:
         raise UsageError("--known holds no grasps")
+    if getattr(descriptor, "reads_contacts", False):
+        blind = [r for r in known if r.source != "simulated"]
+        if blind:
+            raise UsageError(
+                f"--known holds {len(blind)} recording(s) of a real hand, which carry no contact "
+                f"data, and descriptor {descriptor.name} reads contacts: their features would all "
+                "be zero; choose a descriptor of joint angles"
+            )
     have = {r.shape for r in fit_on}
     extra = sorted({r.shape for r in known} - have)
     if extra:

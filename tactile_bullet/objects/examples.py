@@ -24,7 +24,7 @@ import numpy as np
 import trimesh
 
 from ..errors import UsageError
-from ..files import atomic_path
+from ..files import atomic_path, existing_outputs
 
 SECTIONS = 64
 
@@ -269,9 +269,12 @@ def write_set(out: Path, names: Sequence[str] | None = None, force: bool = False
         out / "train.toml",
         out / "test.toml",
     ]
-    existing = [p for p in targets if p.exists()]
+    existing = [p for p in targets if p.exists() or p.is_symlink()]
     if existing and not force:
         raise UsageError(f"{existing[0]} exists (pass --force to overwrite)")
+    # every target checked before the first is written: a link, a FIFO, or (with --force) a
+    # file this project did not write there is refused by name, and nothing is written
+    existing_outputs(out, [p.name for p in targets], "--out", force)
     try:
         out.mkdir(parents=True, exist_ok=True)
     except OSError as exc:

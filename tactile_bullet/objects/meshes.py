@@ -236,20 +236,34 @@ def file_sha256(path: Path, ext: str | None = None) -> str:
 
 
 def gltf_buffer(path: Path, uri: str) -> Path:
-    """The file a glTF buffer ``uri`` names, confined to the glTF's folder and checked as an
-    input; a UsageError for one outside it (absolute, ``..``, or through a link)."""
+    """The file a glTF buffer ``uri`` names, by the rule every file an input references keeps
+    (:func:`files.referenced_file`): inside the glTF's folder, a regular file of bounded size."""
     from urllib.parse import unquote
 
-    from ..files import input_path
+    from ..files import referenced_file
 
-    folder = path.parent.resolve()
-    target = (folder / unquote(uri)).resolve()
-    if not target.is_relative_to(folder):
-        raise UsageError(
-            f"{path.name}: buffer {uri!r} lies outside the mesh's folder {folder}; "
-            "a glTF's buffers must sit beside it"
-        )
-    return input_path(target, "mesh file")
+    return referenced_file(path.parent, unquote(uri), path.name, "mesh file", what="buffer")
+
+
+def confined_resolver(path: Path):
+    """The trimesh resolver a mesh is loaded with: every file the loader follows (an OBJ's
+    ``mtllib`` and textures, a glTF's buffers) goes through :func:`files.referenced_file` as a
+    glTF's buffers do, so a FIFO is never opened and nothing outside the mesh's folder or over
+    the mesh limit is read (an OBJ's unreadable material is skipped: geometry needs none)."""
+    from trimesh.resolvers import FilePathResolver
+
+    from ..files import referenced_file
+
+    class Confined(FilePathResolver):
+        def get(self, name: str) -> bytes:
+            target = referenced_file(path.parent, name.strip(), path.name, "mesh file",
+                                     what="referenced file")  # fmt: skip
+            try:
+                return target.read_bytes()
+            except OSError as exc:
+                raise UsageError(f"cannot read {target}: {exc.strerror or exc}") from None
+
+    return Confined(str(path.parent))
 
 
 def _hash_file(path: Path, h, keep: bool) -> bytes:
@@ -413,7 +427,8 @@ def _read_file(source: MeshSource):
     path = Path(source.path)
     _check_triangles(path.name, count_triangles(path, _extension(path)))
     try:
-        loaded = trimesh.load(str(path), file_type=_extension(path), process=False)
+        loaded = trimesh.load(str(path), file_type=_extension(path), process=False,
+                              resolver=confined_resolver(path))  # fmt: skip
     except Exception as exc:  # noqa: BLE001 - every parser raises its own kind
         detail = str(exc).splitlines()[0][:120] if str(exc) else type(exc).__name__
         raise UsageError(f"{path.name} is not a readable mesh ({detail})") from None

@@ -28,6 +28,9 @@ def nothing_to_identify(record) -> str | None:
     ``fingers_in_contact`` means unknown, not none, and it is never refused here."""
     if getattr(record, "source", "simulated") != "simulated":
         return None
+    if "no_finger_moved" in record.flags:
+        return (f"{NO_CONTACT} (no long finger moved: the hand's actuators or gains keep it "
+                "open)")  # fmt: skip
     touching = [f for f in LONG_FINGERS if f in record.fingers_in_contact]
     if "no_contact" in record.flags or not touching:
         return f"{NO_CONTACT} (no finger touched the object)"

@@ -8,9 +8,13 @@ code, so it is stored under the cache folder (``$TACTILE_BULLET_CACHE``, else
 
 A cached grid is used only when it passes every check: its key (the package version, this
 file format, and a sha256 of the source files the geometry follows from) equals the running
-code's, its grid equals the one asked for, and a sha256 over its predicted angles matches the
-one stored beside them. Anything else (absent, truncated, edited, from another version) is
-recomputed and rewritten atomically. A cache folder that cannot be written costs speed only.
+code's, its grid equals the one asked for, and a keyed digest over its grid and predicted
+angles (HMAC-SHA256 keyed by the package's own sources, :func:`code_key`) matches the one
+stored beside them. A plain checksum could be recomputed by whoever edited the entry; this one
+is not a property of the entry alone. Anything else (absent, truncated, edited, from another
+version) is recomputed and rewritten atomically. A cache folder that cannot be written costs
+speed only. What the cache trusts: whoever can write it and read this package could still
+forge an entry, so the cache folder is trusted as the package itself is (keep it private).
 """
 
 from __future__ import annotations
@@ -24,8 +28,8 @@ from pathlib import Path
 
 import numpy as np
 
-FORMAT = 1
-"""Bumped when the file's layout changes."""
+FORMAT = 2
+"""Bumped when the file's layout changes (2: the digest is keyed, 1's entries are recomputed)."""
 
 _SOURCES = (
     "perception/shape_model.py",
@@ -64,8 +68,15 @@ _MEMBERS = frozenset({"meta", "grid", "geometry"})
 """What :func:`_write` stores; an entry holding anything else is not ours and is recomputed."""
 
 
-def _checksum(values: np.ndarray) -> str:
-    return hashlib.sha256(np.ascontiguousarray(values, dtype="<f8").tobytes()).hexdigest()
+def _checksum(grid: np.ndarray, values: np.ndarray) -> str:
+    """HMAC-SHA256 of the grid and its predicted angles, keyed by :func:`code_key` (the
+    package's sources): an entry edited with its digest recomputed as a plain sha256 fails."""
+    import hmac
+
+    mac = hmac.new(bytes.fromhex(code_key()), digestmod=hashlib.sha256)
+    mac.update(np.ascontiguousarray(grid, dtype="<f8").tobytes())
+    mac.update(np.ascontiguousarray(values, dtype="<f8").tobytes())
+    return mac.hexdigest()
 
 
 def _read(path: Path, grid: np.ndarray) -> np.ndarray | None:
@@ -85,7 +96,7 @@ def _read(path: Path, grid: np.ndarray) -> np.ndarray | None:
         return None
     if stored_grid.shape != grid.shape or not np.array_equal(stored_grid, grid):
         return None
-    if geometry.shape != (len(grid), 3, 4) or meta.get("sha256") != _checksum(geometry):
+    if geometry.shape != (len(grid), 3, 4) or meta.get("hmac") != _checksum(grid, geometry):
         return None
     return geometry
 
@@ -94,7 +105,7 @@ def _write(path: Path, grid: np.ndarray, geometry: np.ndarray) -> None:
     from ..errors import UsageError
     from ..files import atomic_path
 
-    meta = {"key": code_key(), "format": FORMAT, "sha256": _checksum(geometry)}
+    meta = {"key": code_key(), "format": FORMAT, "hmac": _checksum(grid, geometry)}
     try:
         path.parent.mkdir(parents=True, exist_ok=True)
         with atomic_path(path, "shape-fit cache") as tmp, open(tmp, "wb") as fh:

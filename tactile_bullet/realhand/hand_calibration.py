@@ -49,6 +49,19 @@ GAIN_RANGE = (0.2, 5.0)
 """A gain outside this is no hand's: the fit ran away or the file was edited wrongly."""
 FAMILY_RANGE_DEG = 45.0
 """A family offset beyond this is no hand's: the fit ran away or the file was edited wrongly."""
+COEFFICIENT_BOUNDS: dict[str, tuple[float, float]] = {
+    "intercept": (-math.radians(45.0), math.radians(45.0)),
+    "gain": GAIN_RANGE,
+    "side": (-5.0, 5.0),
+    "sigma": (1e-4, 1.0),
+    "loss_scale": (0.1, 100.0),
+    "penalty": (0.0, 100.0),
+}
+"""The range of every coefficient a hand calibration may hold (rad where an angle): wide
+around what ``calibrate`` writes (the shipped intercepts within 12 deg, gains 0.8-1.1, side
+terms within 0.2, sigma 0.01-0.11 rad; loss_scale 4 and penalty 6 copied from the shipped
+file), narrow enough that a file edited to ``intercept = 1e9`` or ``sigma = 1e-300`` is
+refused instead of scoring every grasp as noise (docs/calibration.md)."""
 _KEYS = {"version", "hand", "data", "coefficients", "offsets_deg", "grasps_per_shape", "report"}
 
 
@@ -129,10 +142,21 @@ def load(path: str | os.PathLike) -> HandCalibration:
         if not isinstance(doc.get(key), dict):
             raise UsageError(f"{where}: the [{key}] table is missing")
     coefficients = doc["coefficients"]
+    _only_numbers(coefficients, f"{where}: coefficients")
+    strength = doc["report"].get("strength", "shipped")
+    if strength != "shipped" and not (
+        _is_number(strength) and math.isfinite(strength) and strength >= 0
+    ):
+        raise UsageError(f"{where}: report.strength must be shipped or a number >= 0, "
+                         f"got {strength!r}")  # fmt: skip
     cal = Calibration.from_dict(coefficients, where)
-    lo, hi = GAIN_RANGE
-    if not np.all((cal.gain >= lo) & (cal.gain <= hi)):
-        raise UsageError(f"{where}: every gain must be within {lo:g}-{hi:g}, got {cal.gain}")
+    for name, (lo, hi) in COEFFICIENT_BOUNDS.items():
+        value = np.asarray(getattr(cal, name), float)
+        if not np.all((value >= lo) & (value <= hi)):
+            worst = value.flat[int(np.argmax(np.maximum(lo - value, value - hi)))]
+            span = f"{lo:g}-{hi:g}" if lo >= 0 else f"{lo:g} to {hi:g}"
+            raise UsageError(f"{where}: every {name} must be within {span}, got {worst:g} "
+                             "(docs/calibration.md)")  # fmt: skip
     from ..perception.shape_fit import fitted_shapes
 
     for name, offset in cal.family.items():
@@ -154,6 +178,23 @@ def load(path: str | os.PathLike) -> HandCalibration:
         raise UsageError(f"{where}: report.angles must be raw or zeroed, got {angles!r}")
     cal = replace(cal, angles=angles)
     return HandCalibration(cal, doc["hand"], doc["data"], dict(counts), dict(doc["report"]))
+
+
+def _is_number(value) -> bool:
+    return isinstance(value, int | float) and not isinstance(value, bool)
+
+
+def _only_numbers(value, where: str) -> None:
+    """Refuse a string or a boolean anywhere in the coefficients: ``"0.5"`` and ``true``
+    would otherwise be read as numbers."""
+    if isinstance(value, Mapping):
+        for key, item in value.items():
+            _only_numbers(item, f"{where}.{key}")
+    elif isinstance(value, list):
+        for item in value:
+            _only_numbers(item, where)
+    elif not _is_number(value):
+        raise UsageError(f"{where} must hold numbers only, got {value!r}")
 
 
 def load_sizes(path: str | os.PathLike) -> dict[str, dict[str, float]]:

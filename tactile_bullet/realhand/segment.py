@@ -43,7 +43,9 @@ class GraspSegmenter:
     """
 
     def __init__(self, gap_s: float = GAP_S) -> None:
-        if not (math.isfinite(gap_s) and gap_s > 0):
+        if isinstance(gap_s, bool) or not isinstance(gap_s, int | float) or not (
+            math.isfinite(gap_s) and gap_s > 0
+        ):  # "0.5" or True is no number of seconds
             raise UsageError(f"gap must be a positive number of seconds, got {gap_s!r}")
         self.gap_s = float(gap_s)
         self.reset()

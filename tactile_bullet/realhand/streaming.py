@@ -84,6 +84,12 @@ def checked_message(
     return float(t), tuple(names), arrays[0], arrays[1]
 
 
+def _of_type(value: Any, kinds: tuple, name: str, wanted: str) -> None:
+    """A UsageError naming ``name`` where ``value`` is none of ``kinds`` (bytes is no path)."""
+    if isinstance(value, bytes) or not isinstance(value, kinds):
+        raise UsageError(f"Identifier {name} must be {wanted}, got {type(value).__name__}")
+
+
 class Identifier:
     """Streaming shape identification with a trained model (see the module docstring)."""
 
@@ -91,6 +97,14 @@ class Identifier:
         self, model, calibration: Calibration | None = None, gap_s: float = GAP_S,
         cross_check: bool = True, hand_calibration=None,
     ) -> None:  # fmt: skip
+        from ..learn.models import Model
+        from ..perception.shape_model import Calibration as ShapeFitCalibration
+
+        _of_type(model, (Model,), "model", "a Model (Identifier.load reads a file)")
+        _of_type(calibration, (Calibration, type(None)), "calibration", "a Calibration or None")
+        _of_type(hand_calibration, (ShapeFitCalibration, type(None)), "hand_calibration",
+                 "shape-fit coefficients or None (Identifier.load reads a file)")  # fmt: skip
+        _of_type(cross_check, (bool,), "cross_check", "True or False")
         self.model = model
         self.calibration = calibration
         self.hand_calibration = hand_calibration
@@ -122,9 +136,21 @@ class Identifier:
         path or a :class:`Calibration`; ``cross_check`` as in the constructor;
         ``hand_calibration`` the file ``tactile-bullet calibrate`` wrote (or its loaded
         coefficients)."""
+        from ..learn.models import Model
+        from ..perception.shape_model import Calibration as ShapeFitCalibration
         from .calibration import load_calibration
+        from .hand_calibration import HandCalibration
         from .hand_calibration import load as load_hand
 
+        _of_type(model, (str, os.PathLike, Model, type(None)), "model",
+                 "a model file path, a Model or None (the default identifier)")
+        _of_type(calibration, (str, os.PathLike, Calibration, type(None)), "calibration",
+                 "a calibration file path, a Calibration or None")  # fmt: skip
+        _of_type(hand_calibration, (str, os.PathLike, HandCalibration, ShapeFitCalibration,
+                                    type(None)), "hand_calibration",
+                 "the path of a file calibrate wrote, its coefficients or None")  # fmt: skip
+        if isinstance(hand_calibration, HandCalibration):
+            hand_calibration = hand_calibration.calibration
         if isinstance(hand_calibration, str | os.PathLike):
             hand_calibration = load_hand(hand_calibration).calibration
         if model is None or isinstance(model, str | os.PathLike):

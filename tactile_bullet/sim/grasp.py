@@ -56,6 +56,12 @@ PENETRATION_TOLERANCE = 0.002
 """An object overlapping the open hand deeper than this (m) is refused as a pose."""
 
 
+MIN_FINGER_TRAVEL = math.radians(1.0)
+"""Least a long finger's J3 + J2 + J1 must close (rad) for the grasp to say anything: where
+none did (an actuator wired to another joint, servos too weak to move), the grasp is flagged
+``no_finger_moved`` and carries no shape, whatever it touched."""
+
+
 def resolve_shape(name: str) -> Shape:
     """The Shape called ``name`` from the plugin registry (built-ins included); an unknown
     name is a UsageError listing the known ones."""
@@ -109,6 +115,10 @@ def simulate_grasp(
     from ..plugins import get_engine
 
     ctl = controller or ControllerSettings()
+    if ctl.hand_model is not None and ctl.hand_model_digest is None:
+        from .engines.mujoco_hand import with_digest
+
+        ctl = with_digest(ctl)  # the record keeps what the hand was, not only where
     factory = get_engine(ctl.engine)
     if why := unread_knob(ctl, factory):
         raise UsageError(f"controller {why}")
@@ -363,6 +373,9 @@ class _GraspRun:
             scene_hook(engine)
         link_names = np.array([ct[0] for ct in contacts], dtype="U16")
         in_contact = tuple(f for f in FINGERS if any(nm in FINGER_LINKS[f] for nm in link_names))
+        travel = [sum(abs(final[j]) for j in (f.j3, f.j2, f.j1)) for f in self.fingers]
+        if max(travel) < MIN_FINGER_TRAVEL:
+            self.flags.append("no_finger_moved")
         if not any(f in in_contact for f in LONG_FINGERS):
             self.flags.append("no_contact")
         elif any(f not in in_contact for f in LONG_FINGERS):

@@ -369,8 +369,9 @@ def clear_compiled() -> None:
 def _prototype(shape, params, controller, hand_model) -> _Prototype:
     """The compiled hand + object (at the origin) and its indices, made once per shape, sizes,
     hand and timestep."""
+    digest = controller.hand_model_digest if hand_model == controller.hand_model else None
     key = (id(shape), shape.name, tuple(sorted(params.items())), float(controller.timestep),
-           float(controller.phalanx_scale), str(hand_model))  # fmt: skip
+           float(controller.phalanx_scale), str(hand_model), digest)  # fmt: skip
     found = _PROTOTYPES.get(key)
     if found is not None and found.shape is shape:
         _PROTOTYPES.move_to_end(key)
@@ -380,7 +381,7 @@ def _prototype(shape, params, controller, hand_model) -> _Prototype:
     if hand_model:
         if controller.phalanx_scale != 1.0:
             raise UsageError("phalanx_scale changes the project's own hand, not a --hand-model")
-        spec = load_hand_spec(hand_model)
+        spec = load_hand_spec(hand_model, digest)
     else:
         spec = mujoco.MjSpec.from_string(_hand_xml(str(mjcf_path())))
     if controller.phalanx_scale != 1.0:

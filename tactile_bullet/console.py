@@ -20,10 +20,34 @@ PROGRESS_EVERY_S = 5.0
 
 def emit_json(doc: Any) -> None:
     """Print one JSON document on stdout (the ``--json`` contract)."""
+    json.dump(json_ready(doc), sys.stdout, indent=2)
+    sys.stdout.write("\n")
+
+
+_TINY = sys.float_info.min
+"""The smallest normal float: below it (subnormals such as 1.5e-323, a simulator's rounding
+noise around 0) a number is written as 0.0."""
+
+
+def json_ready(value: Any) -> Any:
+    """``value`` as plain JSON types (numpy scalars and arrays, tuples and paths converted as
+    :func:`tactile_bullet.files.json_value` does), with subnormal floats written as 0.0: a
+    reader should never meet ``1.5e-323`` for an angle that is zero."""
     from .files import json_value
 
-    json.dump(doc, sys.stdout, indent=2, default=json_value)
-    sys.stdout.write("\n")
+    if isinstance(value, float):
+        return 0.0 if value != 0.0 and abs(value) < _TINY else value
+    if isinstance(value, dict):
+        return {k: json_ready(v) for k, v in value.items()}
+    if isinstance(value, list):
+        return [json_ready(v) for v in value]
+    if value is None or isinstance(value, str | int | bool):
+        return value
+    import numpy as np
+
+    if isinstance(value, np.ndarray) and value.dtype.kind == "f":
+        value = np.where(np.abs(value) < _TINY, 0.0, value)
+    return json_ready(json_value(value))
 
 
 def show_progress(json_mode: bool) -> bool:

@@ -148,4 +148,28 @@ def run(args: argparse.Namespace) -> int:
         )
         for problem in doc["repaired"]:
             print(f"simulated again: {problem['file']} ({problem['problem']})")
+        for line in failure_lines(doc["out"]):
+            print(line)
     return 0
+
+
+def failure_lines(out: str, shown: int = 3) -> list[str]:
+    """Why grasps failed, on the terminal and not only in manifest.json: each distinct reason
+    once, with how many grasps and which tasks (the first ``shown`` reasons)."""
+    from ..datasets.integrity import read_manifest
+    from ..errors import UsageError
+
+    try:
+        failed = read_manifest(Path(out))["failed"]
+    except (UsageError, KeyError, TypeError):
+        return []
+    reasons: dict[str, list[int]] = {}
+    for entry in failed:
+        reasons.setdefault(str(entry.get("error")), []).append(int(entry.get("task", -1)))
+    lines = []
+    for reason, tasks in list(reasons.items())[:shown]:
+        which = ", ".join(str(t) for t in tasks[:5]) + (", ..." if len(tasks) > 5 else "")
+        lines.append(f"failed: {plural(len(tasks), 'grasp')} (task {which}): {reason}")
+    if len(reasons) > shown:
+        lines.append(f"failed: {len(reasons) - shown} more reasons in {Path(out) / 'manifest.json'}")
+    return lines

@@ -369,22 +369,28 @@ def _sequential() -> Sweep:
 def _temporal() -> Sweep:
     """Chapter 3's validation grasps (thesis Figs 3.4, 3.8): the five thesis shapes at the small
     end of their sizes, moved up to 30 mm sideways along O-O' so that the outer fingers often
-    miss the object, 40 random draws each (200 grasps)."""
+    miss the object, 40 random draws each (200 grasps). The cone's radius keeps to the lower
+    30% of its range (the others 40%) and within 25 mm of the centre: a wider cone 22-28 mm
+    towards the little finger overlaps its metacarpal in the open hand, a grasp that cannot be
+    made (tests/test_newcomer.py checks every draw is a grasp the open hand admits)."""
     from ..objects.shapes import BUILTIN_SHAPES
 
     shapes = []
     for shape in BUILTIN_SHAPES:
         if not shape.thesis:
             continue
+        share = {("cone", "radius"): 0.3}
         small = {
-            k: {"min": p.min, "max": round(p.min + 0.4 * (p.max - p.min), 5)}
+            k: {"min": p.min,
+                "max": round(p.min + share.get((shape.name, k), 0.4) * (p.max - p.min), 5)}
             for k, p in shape.params.items()
-        }
+        }  # fmt: skip
         shapes.append(
             ShapeSweep(
                 shape.name,
                 small,
-                offset_x={"min": -0.03, "max": 0.03},
+                offset_x={"min": -0.03, "max": 0.03} if shape.name != "cone" else
+                {"min": -0.025, "max": 0.025},
                 offset_z={"min": -0.005, "max": 0.005},
             )
         )

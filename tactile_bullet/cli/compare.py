@@ -7,8 +7,8 @@ import sys
 
 from ..errors import UsageError
 from .common import emit_json, log_lines, seed_number
-from .train import with_names_in_help
 from .data_args import add_allow_partial, read_data, report_skipped
+from .train import with_names_in_help
 
 
 def add_parser(sub) -> None:

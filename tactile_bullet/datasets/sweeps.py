@@ -341,6 +341,25 @@ def _modified() -> Sweep:
     return Sweep("modified", tuple(shapes))
 
 
+def _tour() -> Sweep:
+    """The README tour's dataset: the five thesis shapes, each size parameter at two values
+    inside its range (lengths at their default), the object at -8, 0 and +8 mm along O-O'
+    (39 grasps, under a minute with 2 workers on 2 cores): the thesis preset's recipe, small."""
+    from ..objects.shapes import BUILTIN_SHAPES
+
+    shapes = []
+    for shape in BUILTIN_SHAPES:
+        if not shape.thesis:
+            continue
+        params = {}
+        for k, spec in shape.params.items():
+            inset = 0.2 * (spec.max - spec.min)
+            two = _linspace(spec.min + inset, spec.max - inset, 2)
+            params[k] = (spec.default,) if k == "length" else two
+        shapes.append(ShapeSweep(shape.name, params, offset_x=(-0.008, 0.0, 0.008)))
+    return Sweep("tour", tuple(shapes))
+
+
 def _smoke() -> Sweep:
     """Four grasps: a quick end-to-end check of the whole pipeline."""
     return Sweep(
@@ -410,6 +429,7 @@ def _randomized(engine: str = "bullet") -> Sweep:
 
 
 PRESETS = {
+    "tour": _tour,
     "thesis": _thesis,
     "modified": _modified,
     "sequential": _sequential,
@@ -417,6 +437,36 @@ PRESETS = {
     "temporal": _temporal,
     "randomized": _randomized,
 }
+
+
+PRESET_HELP = {
+    "tour": "the README tour's: the five thesis shapes, two sizes, three offsets",
+    "thesis": "the thesis' sweep",
+    "modified": "ovoid and hexagonal pyramid",
+    "sequential": "chapter 4's seven classes",
+    "temporal": "chapter 3's off-centre grasps",
+    "randomized": "the thesis sweep, the hand drawn per grasp",
+    "smoke": "a pipeline check",
+}
+"""What ``generate --help`` says of each preset beside its computed size and time."""
+
+SECONDS_PER_GRASP = 0.32
+"""A Bullet grasp's simulation on one worker (measured, docs/performance.md): the presets'
+times in ``generate --help`` are their grasps x this / 2 workers (2 cores; MuJoCo is ~5x
+faster, a loaded machine slower)."""
+
+
+def preset_help(workers: int = 2) -> str:
+    """One line per preset: name, grasps, what it is and about how long it takes."""
+    from ..console import duration
+
+    parts = []
+    for name in PRESETS:
+        n = len(PRESETS[name]().tasks(0))
+        took = duration(n * SECONDS_PER_GRASP / workers)
+        parts.append(f"{name} ({n:,} grasps, ~{took} on Bullet with --workers {workers}: "
+                     f"{PRESET_HELP[name]})")  # fmt: skip
+    return "; ".join(parts)
 
 
 def preset(name: str, engine: str = "bullet") -> Sweep:

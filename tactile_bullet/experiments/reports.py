@@ -264,8 +264,9 @@ def summary_text(report: Mapping[str, Any]) -> str:
             parts = [f"{k} {100 * v['accuracy']:.0f}% (n={v['support']})" for k, v in bins.items()]
             lines.append(f"accuracy {kind.replace('_', ' ')}: " + ", ".join(parts))
     if blank:
-        lines.append(f"accuracy by {', '.join(blank)}: not known (the grasps do not carry the "
-                     "object's " + ", ".join(blank) + ", as a recording of a real hand)")  # fmt: skip
+        which = ", ".join(blank)
+        lines.append(f"accuracy by {which}: not known (the grasps do not carry the object's "
+                     f"{which}, as a recording of a real hand)")  # fmt: skip
     return "\n".join(lines).rstrip() + "\n"
 
 

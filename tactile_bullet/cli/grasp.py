@@ -256,7 +256,7 @@ def _print_summary(doc: dict) -> None:
         else:
             print(f"  rotation estimate withheld: {sig['rotation_estimate_withheld']}")
     touching = ", ".join(doc["fingers_in_contact"]) or "none"
-    print(f"  fingers in contact (the simulator's contacts): {touching}")
+    print(f"  fingers in contact: {touching} (the simulator's contacts)")
     temporal = doc.get("temporal")
     if temporal:
         print(f"  {_detector_line(doc['fingers_in_contact'], temporal['dynamic'], doc['engine'])}")

@@ -40,6 +40,8 @@ NEEDS: dict[str, str] = {
     "bench_coupling": "the sets of `tactile-bullet benchmark --protocol coupling-shift "
     "--training clean,randomized --out DIR` (--data DIR/data)",
     "bench_generate": "no dataset; builds a 100k-grasp dataset in a temporary folder (minutes)",
+    "bench_generate_engines": "no dataset; simulates a 26-grasp sweep 3 times on each engine "
+    "(about a minute)",
     "bench_recordings": "a dataset with time series (`tactile-bullet generate`)",
     "bench_streaming": "a dataset with time series (`tactile-bullet generate`)",
     "bench_temporal": "no dataset; simulates --grasps of a preset twice (~1.5 min for 60)",

@@ -304,11 +304,28 @@ def plugin_report() -> list[dict]:
     return [info.describe() for info in _loaded().infos.values()]
 
 
+KNOWN_PROVIDERS = {
+    ("classifiers", "random-forest"): "tactile-bullet-example",
+    ("descriptors", "finger-closure"): "tactile-bullet-example",
+    ("shapes", "capsule"): "tactile-bullet-example",
+}
+"""Names registered by packages known to this project, for the error when one is missing."""
+
+_INSTALL = {
+    "tactile-bullet-example": "pip install ./plugins/tactile-bullet-example (from a clone of "
+    "tactile-bullet; it ships the example plugin)",
+}
+
+
 def _lookup(kind: str, name: str) -> _Entry:
     entries = _loaded().entries[kind]
     if not isinstance(name, str) or name not in entries:
+        hint = ""
+        package = KNOWN_PROVIDERS.get((kind, _normalise(name) if isinstance(name, str) else ""))
+        if package:
+            hint = f"; {name!r} comes with the {package} plugin: {_INSTALL[package]}"
         raise UsageError(
-            f"unknown {_SINGULAR[kind]} {name!r} ({kind}: {', '.join(entries) or 'none'})"
+            f"unknown {_SINGULAR[kind]} {name!r} ({kind}: {', '.join(entries) or 'none'}){hint}"
         )
     return entries[name]
 

@@ -319,21 +319,6 @@ def test_sequential_json_and_full_class_names(capsys, tmp_path):
     assert "hyperboloid" in table and "cylinder-rot90" in table
 
 
-def test_generate_prints_plain_progress_lines_without_a_terminal(tmp_path, capsys):
-    from tactile_bullet.cli.generate import ProgressLines
-
-    def manifest(done):
-        shards = [{"records": 2, "failed": 0}] * done
-        (tmp_path / "manifest.json").write_text(json.dumps({"tasks": 6, "shards": shards}))
-
-    manifest(0)
-    with ProgressLines(tmp_path, interval=0.01):
-        manifest(1)
-        manifest(3)
-    err = capsys.readouterr().err
-    assert "generate: 6/6 grasps done (3 shards)" in err
-
-
 def test_an_allow_list_naming_no_installed_plugin_is_warned(monkeypatch, capsys):
     from tactile_bullet import plugins
 

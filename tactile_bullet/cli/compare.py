@@ -8,6 +8,7 @@ import sys
 from ..errors import UsageError
 from .common import emit_json, log_lines, seed_number
 from .data_args import add_allow_partial, read_data, report_skipped
+from .train import with_names_in_help
 
 
 def add_parser(sub) -> None:
@@ -36,6 +37,7 @@ def add_parser(sub) -> None:
 
     add_hand_calibration_flag(parser)
     parser.set_defaults(run=run)
+    with_names_in_help(parser)
 
 
 def name_list(text: str | None, what: str, default) -> list[str]:

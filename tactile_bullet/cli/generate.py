@@ -3,10 +3,6 @@
 from __future__ import annotations
 
 import argparse
-import json
-import sys
-import threading
-import time
 from pathlib import Path
 
 from ..console import plural
@@ -36,8 +32,8 @@ def add_parser(sub) -> None:
     )
     source = parser.add_mutually_exclusive_group(required=True)
     source.add_argument(
-        "--preset", help="thesis, modified, sequential, temporal, randomized (the thesis "
-        "sweep with the hand and physics drawn per grasp) or smoke (a few grasps, seconds)"
+        "--preset", help="a built-in sweep: tour, thesis, modified, sequential, temporal, "
+        "randomized or smoke (each one's size and time at the end of this help)"
     )
     source.add_argument("--config", metavar="FILE.toml", help="a sweep declared in TOML")
     parser.add_argument("--out", required=True, help="dataset directory (new or resumed)")
@@ -58,62 +54,17 @@ def add_parser(sub) -> None:
     add_engine_flag(parser, hand_model=True)
     parser.add_argument("--json", action="store_true", help="print one JSON document")
     parser.set_defaults(run=run)
+    plain = parser.format_help
 
+    def format_help() -> str:  # the presets' sizes are computed, only when help is asked
+        from ..datasets.sweeps import preset_help
 
-class ProgressLines:
-    """Plain progress lines on stderr where there is no terminal for a bar (a log file, CI):
-    every ``interval`` seconds the dataset's manifest is read, and a line is printed when
-    more shards are done, so a long run is never silent for minutes."""
+        return plain().rstrip("\n") + "\n\npresets: " + preset_help() + "\n"
 
-    def __init__(self, out: Path, interval: float = 2.0) -> None:
-        self.out, self.interval = Path(out), interval
-        self.started = time.perf_counter()
-        self._stop = threading.Event()
-        self._thread = threading.Thread(target=self._run, daemon=True)
-        self._last: tuple[int, int] | None = None
-
-    def __enter__(self) -> ProgressLines:
-        self._thread.start()
-        return self
-
-    def __exit__(self, *exc) -> None:
-        self._stop.set()
-        self._thread.join()
-        if exc[0] is None:
-            self._report()  # the last shards, written since the last look
-
-    def _state(self) -> tuple[int, int, int] | None:
-        try:
-            data = json.loads((self.out / "manifest.json").read_text())
-            shards = data["shards"]
-            done = sum(int(s["records"]) + int(s["failed"]) for s in shards)
-            return done, int(data["tasks"]), len(shards)
-        except (OSError, ValueError, KeyError, TypeError):
-            return None  # not written yet, or mid-replace on a filesystem without rename
-
-    def _report(self) -> None:
-        state = self._state()
-        if state is None or state[:2] == self._last:
-            return
-        self._last = state[:2]
-        done, total, shards = state
-        elapsed = time.perf_counter() - self.started
-        print(
-            f"generate: {done}/{total} grasps done ({shards} shard{'' if shards == 1 else 's'}) "
-            f"after {elapsed:.0f} s",
-            file=sys.stderr,
-            flush=True,
-        )
-
-    def _run(self) -> None:
-        first = self._state()
-        self._last = first[:2] if first else None
-        while not self._stop.wait(self.interval):
-            self._report()
+    parser.format_help = format_help
 
 
 def run(args: argparse.Namespace) -> int:
-    import contextlib
 
     from ..datasets.generate import generate
     from ..datasets.sweep_engines import with_engine
@@ -126,18 +77,17 @@ def run(args: argparse.Namespace) -> int:
         sweep = with_engine(sweep, **settings)
     if args.cluster and args.workers != 1:
         raise UsageError("--workers applies to local runs; a cluster has its own workers")
-    lines = ProgressLines(args.out) if not sys.stderr.isatty() else contextlib.nullcontext()
-    with lines:
-        doc = generate(
-            sweep,
-            args.out,
-            workers=args.workers,
-            cluster=args.cluster,
-            resume=args.resume,
-            seed=args.seed,
-            shard_size=args.shard_size,
-            progress=show_progress(args.json),
-        )
+    # progress: a bar on a terminal, else plain lines (console.reporting, per grasp)
+    doc = generate(
+        sweep,
+        args.out,
+        workers=args.workers,
+        cluster=args.cluster,
+        resume=args.resume,
+        seed=args.seed,
+        shard_size=args.shard_size,
+        progress=show_progress(args.json),
+    )
     if args.json:
         emit_json(doc)
     else:
@@ -148,4 +98,29 @@ def run(args: argparse.Namespace) -> int:
         )
         for problem in doc["repaired"]:
             print(f"simulated again: {problem['file']} ({problem['problem']})")
+        for line in failure_lines(doc["out"]):
+            print(line)
     return 0
+
+
+def failure_lines(out: str, shown: int = 3) -> list[str]:
+    """Why grasps failed, on the terminal and not only in manifest.json: each distinct reason
+    once, with how many grasps and which tasks (the first ``shown`` reasons)."""
+    from ..datasets.integrity import read_manifest
+    from ..errors import UsageError
+
+    try:
+        failed = read_manifest(Path(out))["failed"]
+    except (UsageError, KeyError, TypeError):
+        return []
+    reasons: dict[str, list[int]] = {}
+    for entry in failed:
+        reasons.setdefault(str(entry.get("error")), []).append(int(entry.get("task", -1)))
+    lines = []
+    for reason, tasks in list(reasons.items())[:shown]:
+        which = ", ".join(str(t) for t in tasks[:5]) + (", ..." if len(tasks) > 5 else "")
+        lines.append(f"failed: {plural(len(tasks), 'grasp')} (task {which}): {reason}")
+    if len(reasons) > shown:
+        where = Path(out) / "manifest.json"
+        lines.append(f"failed: {len(reasons) - shown} more reasons in {where}")
+    return lines

@@ -277,15 +277,10 @@ def _print_summary(doc: dict) -> None:
         sizes = ", ".join(f"{k} {v * 1000:.1f} mm" for k, v in fit["params"].items())
         print(f"  shape fit: {fit['shape']} ({sizes}, residual {fit['residual']:.3f} rad)")
     touching = ", ".join(doc["fingers_in_contact"]) or "none"
-    print(f"  fingers in contact: {touching}")
+    print(f"  fingers in contact: {touching} (the simulator's contacts)")
     temporal = doc.get("temporal")
     if temporal:
-        dyn = temporal["dynamic"]
-        off = ", ".join(dyn["non_contact"]) or "none"
-        # its thresholds were fitted on bullet grasps: say so where another engine made this one
-        tuned = "" if doc["engine"] == "bullet" else ", thresholds fitted on bullet grasps"
-        print(f"  fingers off the object (dynamic detector{tuned}): {off}, all known at "
-              f"{dyn['decided_at_s']:.2f} s")  # fmt: skip
+        print(f"  {_detector_line(doc['fingers_in_contact'], temporal['dynamic'], doc['engine'])}")
     print(f"  simulated {doc['sim_time_s']:.3f} s in {doc['steps']} steps, "
           f"wall time {doc['wall_time_s']:.3f} s")  # fmt: skip
     if doc["flags"]:
@@ -298,6 +293,27 @@ def _print_summary(doc: dict) -> None:
         print(f"    {finger}: {row}")
     for key, path in doc["outputs"].items():
         print(f"wrote {key}: {path}")
+
+
+def _detector_line(in_contact, dynamic: dict, engine: str) -> str:
+    """What chapter 3's dynamic detector reads from the joint angles alone, beside the
+    simulator's contacts: never a second, contradicting "off the object" list. Where the two
+    disagree (on MuJoCo often: the detector's thresholds were fitted on bullet grasps), the
+    line names the fingers they disagree on and says which is the simulator's truth."""
+    off = list(dynamic["non_contact"])
+    when = f"decided at {dynamic['decided_at_s']:.2f} s"
+    disputed = [f for f in off if f in set(in_contact)]
+    if not disputed:
+        return (f"fingers off the object by the joint angles alone (dynamic detector): "
+                f"{', '.join(off) or 'none'}, {when}")  # fmt: skip
+    tuned = "" if engine == "bullet" else (
+        f"; its thresholds were fitted on bullet grasps, not {engine}"
+    )
+    agreed = [f for f in off if f not in disputed]
+    more = f" (and off: {', '.join(agreed)})" if agreed else ""
+    return (f"dynamic detector (joint angles alone) would call {', '.join(disputed)} off the "
+            f"object{more}, {when}: wrong here, the simulator has them in contact"
+            f"{tuned}")  # fmt: skip
 
 
 def _answer_line(doc: dict) -> str:

@@ -45,10 +45,14 @@ def run(args: argparse.Namespace) -> int:
     check_dataset_out(Path(args.out), args.force)  # refuse before reading gigabytes
     probe_parent(args.out, "--out")
     files, records = [], []
-    for path in args.files:
+    from ..console import tick
+
+    for done, path in enumerate(args.files):
+        tick("import: recordings read", done, len(args.files))
         grasps = read_recording(path, shape=args.shape, **options)
         files.append({"file": str(path), "grasps": len(grasps)})
         records += [g.record for g in grasps]
+    tick("import: recordings read", len(args.files), len(args.files))
     origin = {
         "source": "recorded",
         "files": files,

@@ -46,6 +46,23 @@ def add_parser(sub) -> None:
     add_force_flag(parser, "model file")
     parser.add_argument("--json", action="store_true", help="print one JSON document")
     parser.set_defaults(run=run)
+    with_names_in_help(parser)
+
+
+def with_names_in_help(parser) -> None:
+    """``--help`` ends with the descriptor and classifier names installed now (built-in and
+    plugins'), looked up only when help is asked for: loading plugins costs every command
+    time it need not pay."""
+    plain = parser.format_help
+
+    def format_help() -> str:
+        from ..plugins import classifier_names, descriptor_names
+
+        return (plain().rstrip("\n") + "\n\ndescriptors (join with +): "
+                + ", ".join(descriptor_names()) + "\nclassifiers: "
+                + ", ".join(classifier_names()) + "\n")  # fmt: skip
+
+    parser.format_help = format_help
 
 
 def run(args: argparse.Namespace) -> int:

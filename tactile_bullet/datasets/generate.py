@@ -275,11 +275,15 @@ def _fill(out, manifest, todo, results, shard_size: int, progress: bool) -> None
         from tqdm import tqdm
 
         bar = tqdm(total=len(todo), desc="grasps", unit="grasp", file=sys.stderr)
-    for index, outcome in results:
+    from ..console import tick
+
+    for done, (index, outcome) in enumerate(results, 1):
         block = index // shard_size
         buffers[block][index] = outcome
         if bar is not None:
             bar.update(1)
+        else:  # plain lines where the CLI reports them (a log file, CI): rate, time left
+            tick("generate: grasps", done, len(todo))
         if len(buffers[block]) == block_sizes[block]:
             _write_block(out, manifest, block, buffers.pop(block))
     if bar is not None:

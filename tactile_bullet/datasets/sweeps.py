@@ -342,6 +342,25 @@ def _modified() -> Sweep:
     return Sweep("modified", tuple(shapes))
 
 
+def _tour() -> Sweep:
+    """The README tour's dataset: the five thesis shapes, each size parameter at two values
+    inside its range (lengths at their default), the object at -8, 0 and +8 mm along O-O'
+    (39 grasps, under a minute with 2 workers on 2 cores): the thesis preset's recipe, small."""
+    from ..objects.shapes import BUILTIN_SHAPES
+
+    shapes = []
+    for shape in BUILTIN_SHAPES:
+        if not shape.thesis:
+            continue
+        params = {}
+        for k, spec in shape.params.items():
+            inset = 0.2 * (spec.max - spec.min)
+            two = _linspace(spec.min + inset, spec.max - inset, 2)
+            params[k] = (spec.default,) if k == "length" else two
+        shapes.append(ShapeSweep(shape.name, params, offset_x=(-0.008, 0.0, 0.008)))
+    return Sweep("tour", tuple(shapes))
+
+
 def _smoke() -> Sweep:
     """Four grasps: a quick end-to-end check of the whole pipeline."""
     return Sweep(
@@ -370,22 +389,28 @@ def _sequential() -> Sweep:
 def _temporal() -> Sweep:
     """Chapter 3's validation grasps (thesis Figs 3.4, 3.8): the five thesis shapes at the small
     end of their sizes, moved up to 30 mm sideways along O-O' so that the outer fingers often
-    miss the object, 40 random draws each (200 grasps)."""
+    miss the object, 40 random draws each (200 grasps). The cone's radius keeps to the lower
+    30% of its range (the others 40%) and within 25 mm of the centre: a wider cone 22-28 mm
+    towards the little finger overlaps its metacarpal in the open hand, a grasp that cannot be
+    made (tests/test_newcomer.py checks every draw is a grasp the open hand admits)."""
     from ..objects.shapes import BUILTIN_SHAPES
 
     shapes = []
     for shape in BUILTIN_SHAPES:
         if not shape.thesis:
             continue
+        share = {("cone", "radius"): 0.3}
         small = {
-            k: {"min": p.min, "max": round(p.min + 0.4 * (p.max - p.min), 5)}
+            k: {"min": p.min,
+                "max": round(p.min + share.get((shape.name, k), 0.4) * (p.max - p.min), 5)}
             for k, p in shape.params.items()
-        }
+        }  # fmt: skip
         shapes.append(
             ShapeSweep(
                 shape.name,
                 small,
-                offset_x={"min": -0.03, "max": 0.03},
+                offset_x={"min": -0.03, "max": 0.03} if shape.name != "cone" else
+                {"min": -0.025, "max": 0.025},
                 offset_z={"min": -0.005, "max": 0.005},
             )
         )
@@ -405,6 +430,7 @@ def _randomized(engine: str = "bullet") -> Sweep:
 
 
 PRESETS = {
+    "tour": _tour,
     "thesis": _thesis,
     "modified": _modified,
     "sequential": _sequential,
@@ -412,6 +438,36 @@ PRESETS = {
     "temporal": _temporal,
     "randomized": _randomized,
 }
+
+
+PRESET_HELP = {
+    "tour": "the README tour's: the five thesis shapes, two sizes, three offsets",
+    "thesis": "the thesis' sweep",
+    "modified": "ovoid and hexagonal pyramid",
+    "sequential": "chapter 4's seven classes",
+    "temporal": "chapter 3's off-centre grasps",
+    "randomized": "the thesis sweep, the hand drawn per grasp",
+    "smoke": "a pipeline check",
+}
+"""What ``generate --help`` says of each preset beside its computed size and time."""
+
+SECONDS_PER_GRASP = 0.32
+"""A Bullet grasp's simulation on one worker (measured, docs/performance.md): the presets'
+times in ``generate --help`` are their grasps x this / 2 workers (2 cores; MuJoCo is ~5x
+faster, a loaded machine slower)."""
+
+
+def preset_help(workers: int = 2) -> str:
+    """One line per preset: name, grasps, what it is and about how long it takes."""
+    from ..console import duration
+
+    parts = []
+    for name in PRESETS:
+        n = len(PRESETS[name]().tasks(0))
+        took = duration(n * SECONDS_PER_GRASP / workers)
+        parts.append(f"{name} ({n:,} grasps, ~{took} on Bullet with --workers {workers}: "
+                     f"{PRESET_HELP[name]})")  # fmt: skip
+    return "; ".join(parts)
 
 
 def preset(name: str, engine: str = "bullet") -> Sweep:

@@ -19,9 +19,9 @@ from typing import Any
 
 import numpy as np
 
-from ..console import plural
+from ..console import json_ready, plural
 from ..errors import UsageError
-from ..files import atomic_path, json_value, probe_folder, write_bytes_atomic
+from ..files import atomic_path, probe_folder, write_bytes_atomic
 
 SIZE_BINS: tuple[str, ...] = ("small", "medium", "large")
 """Thirds of the valid size range (see :func:`size_fraction`)."""
@@ -263,11 +263,18 @@ def summary_text(report: Mapping[str, Any]) -> str:
             f"{unknown['in_family_grasps']} grasps of its shapes, {pct(unknown['out_of_family'])} "
             f"of {unknown['out_of_family_grasps']} grasps of other objects"
         )
+    blank = []
     for kind in ("by_size", "by_position", "by_rotation"):
         bins = report.get(kind)
-        if bins:
+        if bins and set(bins) == {"unknown"}:  # no grasp carries it (a real hand's recording)
+            blank.append(kind.removeprefix("by_"))
+        elif bins:
             parts = [f"{k} {100 * v['accuracy']:.0f}% (n={v['support']})" for k, v in bins.items()]
             lines.append(f"accuracy {kind.replace('_', ' ')}: " + ", ".join(parts))
+    if blank:
+        which = ", ".join(blank)
+        lines.append(f"accuracy by {which}: not known (the grasps do not carry the object's "
+                     f"{which}, as a recording of a real hand)")  # fmt: skip
     return "\n".join(lines).rstrip() + "\n"
 
 
@@ -291,7 +298,7 @@ def write_text_atomic(path: str | os.PathLike, text: str) -> Path:
 
 
 def write_json(path: str | os.PathLike, doc: Any) -> Path:
-    return write_text_atomic(path, json.dumps(doc, indent=2, default=json_value) + "\n")
+    return write_text_atomic(path, json.dumps(json_ready(doc), indent=2) + "\n")
 
 
 def _pyplot():

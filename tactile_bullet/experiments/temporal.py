@@ -288,5 +288,7 @@ def summary_text(doc: dict[str, Any]) -> str:
             f"  training-free DTW: {100 * d['raw']['identified']:.1f}% raw, "
             f"{100 * d['corrected']['identified']:.1f}% corrected ({d['correction']})"
         )
-    lines.append(f"wrote {plural(len(doc['outputs']), 'file')}")
+    folder = str(Path(doc["outputs"][0]).parent) if doc["outputs"] else "?"
+    lines.append(f"wrote {plural(len(doc['outputs']), 'file')} to {folder}/ (figures and "
+                 f"{SUMMARY})")  # fmt: skip
     return "\n".join(lines) + "\n"

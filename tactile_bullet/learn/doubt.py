@@ -158,17 +158,19 @@ def cross_check_applies(classes: Sequence[str], classifier: str) -> bool:
 def cross_check_names(records: Sequence, classes: Sequence[str]) -> np.ndarray:
     """The shape fit's answer among ``classes`` for each record ('' where it cannot read one),
     each read as the coefficients in force were fitted (:func:`.robust.angles_for_shape_fit`)."""
+    from ..console import tick
     from ..errors import UsageError
     from ..perception.shape_fit import fit_shape
     from .robust import angles_for_shape_fit
 
     families = [str(c) for c in classes]
     out = []
-    for rec in records:
-        try:
+    for done, rec in enumerate(records, 1):
+        try:  # fit_shape keeps each grasp's fit: asked again (another fold), it is not redone
             out.append(fit_shape(angles_for_shape_fit(rec), families).shape)
         except UsageError:
             out.append("")
+        tick("shape fit (second opinion)", done, len(records))
     return np.array(out, dtype=object).astype(str)
 
 
@@ -236,7 +238,10 @@ def held_out_margins(
     out_margin = np.empty(len(y))
     out_right = np.empty(len(y), dtype=bool)
     splitter = StratifiedKFold(n_splits=k, shuffle=True, random_state=seed)
-    for train_idx, test_idx in splitter.split(x, y):
+    from ..console import tick
+
+    for fold, (train_idx, test_idx) in enumerate(splitter.split(x, y)):
+        tick("doubt calibration folds", fold, k)
         if len(np.unique(y[train_idx])) < 2:
             return "a fold holds a single shape"
         try:

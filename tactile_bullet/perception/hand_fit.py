@@ -305,7 +305,10 @@ def fit_hand(
     # the simpler model)
     options = (False, True) if any(z is not None for z in resolved) else (False,)
     candidates = [(None, False)] + [(s, p) for s in strengths for p in options]
-    for strength, per_family in candidates:
+    from ..console import tick
+
+    for step, (strength, per_family) in enumerate(candidates):
+        tick("calibrate: candidate coefficients tried", step, len(candidates))
         right, margin = 0, 0.0
         for f in range(k):
             train, test = fold != f, fold == f

@@ -22,6 +22,7 @@ residuals plus a penalty per size parameter; the lowest score wins.
 from __future__ import annotations
 
 import math
+from collections import OrderedDict
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from functools import cache
@@ -428,8 +429,25 @@ def fit_shape(
     if not names:
         raise UsageError("shape-fit needs at least one shape family")
     cal = active_calibration() if calibration is None else calibration
+    key = (measured.tobytes(), tuple(names), id(cal))
+    hit = _FITS.get(key)
+    if hit is not None and hit[0] is cal:
+        _FITS.move_to_end(key)
+        return hit[1]
     fits = _fit(measured, [_resolve_family(n) for n in names], cal)
-    return ShapeFit(min(fits, key=lambda n: fits[n].score), fits)
+    out = ShapeFit(min(fits, key=lambda n: fits[n].score), fits)
+    _FITS[key] = (cal, out)
+    if len(_FITS) > FIT_CACHE:
+        _FITS.popitem(last=False)
+    return out
+
+
+FIT_CACHE = 8192
+"""Fits kept in memory, keyed by the measured angles, the families and the calibration: a
+grasp's fit is computed once per process however often it is asked for (``predict`` then
+``predict_proba``, the doubt calibration's folds, the cross-check of the same records)."""
+
+_FITS: OrderedDict = OrderedDict()
 
 
 def predicted_angles(

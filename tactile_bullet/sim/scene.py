@@ -107,7 +107,10 @@ def _flush_c_stdout() -> None:
 
 
 def import_pybullet():
-    """pybullet, imported without its build-time banner."""
+    """pybullet, imported without its build-time banner (which its C module prints at import
+    on stdout): every import of pybullet in the package goes through here."""
+    if "pybullet" in sys.modules and "pybullet_utils.bullet_client" in sys.modules:
+        return sys.modules["pybullet"]
     with quiet_stdout(("stdout", "stderr")):
         import pybullet
         import pybullet_utils.bullet_client  # noqa: F401

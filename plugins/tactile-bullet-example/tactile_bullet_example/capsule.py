@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import numpy as np
-import trimesh
 
 from tactile_bullet.objects.shapes import Param, Shape
 
@@ -16,8 +15,12 @@ def capsule_radius(x, radius=0.03, length=0.14):
     return np.where(x <= body, radius, np.where(x <= length / 2, cap, 0.0))
 
 
-def capsule(radius: float = 0.03, length: float = 0.14) -> trimesh.Trimesh:
-    """Capsule of ``radius`` (m) and overall ``length`` (m, caps included) along x."""
+def capsule(radius: float = 0.03, length: float = 0.14):
+    """Capsule of ``radius`` (m) and overall ``length`` (m, caps included) along x, a
+    ``trimesh.Trimesh`` (trimesh imported here, when a mesh is made: importing it takes a
+    second, which every command that loads plugins would otherwise pay)."""
+    import trimesh
+
     mesh = trimesh.creation.capsule(height=length - 2 * radius, radius=radius, count=[32, 32])
     mesh.apply_transform(trimesh.transformations.rotation_matrix(np.pi / 2, [0, 1, 0]))
     return mesh

@@ -85,9 +85,12 @@ class ShapeFitClassifier(ClassifierMixin, BaseEstimator):
         cols = _fci_columns(X.shape[1])
         names = [str(c) for c in self.classes_]
         out = np.empty((len(X), len(names)))
+        from ...console import tick
+
         for row, x in enumerate(X):
-            fits = shape_fit.fit_shape(x[cols], names).fits
+            fits = shape_fit.fit_shape(x[cols], names).fits  # cached: predict, then proba
             out[row] = [fits[n].score for n in names]
+            tick("shape fits", row + 1, len(X))
         return out
 
     def predict_proba(self, X) -> np.ndarray:

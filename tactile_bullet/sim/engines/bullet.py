@@ -44,8 +44,9 @@ class BulletEngine(Engine):
         gui: bool = False,
         visual: bool = False,
     ) -> None:
-        import pybullet as p
+        from ..scene import import_pybullet
 
+        p = import_pybullet()  # the one import of pybullet: its build-time banner silenced
         if controller.hand_model is not None:
             raise UsageError("--hand-model is an MJCF model: use it with --engine mujoco")
         self.scene = scene = Scene(

@@ -72,7 +72,8 @@ def test_thesis_preset_covers_the_five_shapes_and_rotates_three():
 def test_presets_expand():
     assert {t.shape for t in preset("modified").tasks()} == {"ovoid", "hexagonal_pyramid"}
     assert 0 < len(preset("smoke").tasks()) <= 8
-    assert set(PRESETS) == {"thesis", "modified", "sequential", "smoke", "temporal", "randomized"}
+    assert set(PRESETS) == {"thesis", "modified", "sequential", "smoke", "temporal", "randomized",
+                            "tour"}
     rotated = {t.shape for t in preset("sequential").tasks() if t.pose.rotation > 1.5}
     assert rotated == {"cylinder", "cone"}
     # chapter 3's grasps: small objects moved far enough sideways for a finger to miss them

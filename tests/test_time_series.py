@@ -107,14 +107,14 @@ def test_a_real_hand_record_with_its_own_column_order_and_no_wrist():
             {"time": np.zeros(0), "angles": np.zeros((0, 24)), "efforts": np.zeros((0, 24))},
             "no time",
         ),
-        ({"angles": np.full((12, 24), np.nan)}, "non-finite"),
+        ({"angles": np.full((12, 24), np.nan)}, "not finite"),  # no such record can exist
         ({"efforts": np.zeros((12, 3))}, "time series of shape"),
         ({"joint_names": ("FFJ3",) * 24}, "no joint 'FFJ4'"),
     ],
 )
 def test_records_without_a_usable_series_are_refused(change, message):
-    record = dataclasses.replace(make_record("sphere"), **change)
     with pytest.raises(UsageError, match=message):
+        record = dataclasses.replace(make_record("sphere"), **change)
         TimeSeriesDescriptor().transform([record])
 
 

@@ -148,8 +148,8 @@ def _quoted(text: str) -> set[tuple[str, str]]:
 
 def test_no_figure_is_in_two_pages():
     """The same figure after the same words on two pages (any page of the site, and the
-    README) is a copy: one of them should link to the other. (A heuristic: it catches a sentence or a table row
-    copied from one page to another, not a figure reworded around.)"""
+    README) is a copy: one of them should link to the other. (A heuristic: it catches a
+    sentence or a table row copied from one page to another, not a figure reworded around.)"""
     seen: dict[tuple[str, str], str] = {}
     copies = []
     for name, text in _pages().items():

@@ -27,11 +27,6 @@ FIGURES_PAGE = "performance.md"
 GENERATED = {"signature_invariance.md": "written by tools/invariance.py from its own run"}
 """Pages a tool writes from its own output: figures there are that tool's, never copied."""
 BESIDE_COMMAND = {
-    "calibration.md": "edited on another branch; its Measured section moves on merge",
-    "engines.md": "edited on another branch; its speed output and cross-engine tables",
-    "real_hand.md": "edited on another branch; its which-method table",
-    "transfer.md": "randomised training, tendon rules, finger points, fusion: not yet folded in",
-    "independent_hand.md": "the hands written by others: not yet folded in",
     "robustness.md": "the matrix's table is its command's own output (table.md), with the "
     "targets and root causes measured from it",
 }
@@ -152,14 +147,13 @@ def _quoted(text: str) -> set[tuple[str, str]]:
 
 
 def test_no_figure_is_in_two_pages():
-    """The same figure after the same words on two of the pages allowed figures is a copy:
-    one of them should link to the other. (A heuristic: it catches a sentence or a table row
-    copied from one page to another, not a figure reworded around.)"""
-    pages = [FIGURES_PAGE, *BESIDE_COMMAND]
+    """The same figure after the same words on two pages (any page of the site, and the
+    README) is a copy: one of them should link to the other. (A heuristic: it catches a
+    sentence or a table row copied from one page to another, not a figure reworded around.)"""
     seen: dict[tuple[str, str], str] = {}
     copies = []
-    for name in pages:
-        for key in _quoted((DOCS / name).read_text(encoding="utf-8")):
+    for name, text in _pages().items():
+        for key in _quoted(text):
             if key in seen and seen[key] != name:
                 copies.append(f"{key[1]} after '{key[0]}' in {seen[key]} and {name}")
             seen.setdefault(key, name)

@@ -30,6 +30,8 @@ _LAZY: dict[str, tuple[str, str | None]] = {
     "simulate_grasp": ("tactile_bullet.sim.grasp", "simulate_grasp"),
     "workflow": ("tactile_bullet.experiments.workflow", None),
     "Identifier": ("tactile_bullet.realhand.streaming", "Identifier"),
+    "next_pose": ("tactile_bullet.experiments.exploration", "next_pose"),
+    "Grasp": ("tactile_bullet.experiments.exploration", "Grasp"),
     "read_records": ("tactile_bullet.datasets.dataset", "read_records"),
     "load_dataset": ("tactile_bullet.datasets.arrays", "load_dataset"),
     "open_dataset": ("tactile_bullet.datasets.dataset", "open_dataset"),

@@ -35,6 +35,7 @@ COMMANDS: tuple[str, ...] = (
     "benchmark",
     "calibrate",
     "identify",
+    "explore",
     "demo",
     "sequential",
     "temporal",

@@ -33,7 +33,9 @@ def add_parser(sub) -> None:
         help="in-distribution, unseen-sizes, unseen-poses, sensor-noise, sim-shift, "
         "coupling-shift, or all (those six, the default); cross-engine and mixed-engine "
         "(bullet and mujoco) when named; robustness alone: every candidate method on every "
-        "hand and condition, scored by its worst column (docs/robustness.md)",
+        "hand and condition, scored by its worst column (docs/robustness.md); active alone: "
+        "accuracy after 1, 2, 3 grasps with the next pose planned, random or repeated "
+        "(docs/exploration.md)",
     )  # fmt: skip
     parser.add_argument(
         "--other-hand", action="append", metavar="NAME=FILE",
@@ -79,8 +81,10 @@ def run(args: argparse.Namespace) -> int:
 
     if "robustness" in [p.strip() for p in str(args.protocol).split(",")]:
         return run_robustness(args)
+    if "active" in [p.strip() for p in str(args.protocol).split(",")]:
+        return run_active(args)
     if args.other_hand:
-        raise UsageError("--other-hand adds a column to --protocol robustness")
+        raise UsageError("--other-hand adds a column to --protocol robustness or active")
 
     if args.scale and args.quick and args.scale != "quick":
         raise UsageError(f"--quick contradicts --scale {args.scale}")
@@ -149,4 +153,29 @@ def run_robustness(args: argparse.Namespace) -> int:
               f"column {100 * best['score']:.1f}%, mean {100 * best['mean']:.1f}%")  # fmt: skip
     print(f"results: {args.out}/robustness.json, {args.out}/table.md; "
           f"wall time {doc['wall_time_s']:.0f} s")  # fmt: skip
+    return 0
+
+
+def run_active(args: argparse.Namespace) -> int:
+    """``benchmark --protocol active``: the second grasp's worth (docs/exploration.md)."""
+    from ..experiments.active import run_active as active
+    from ..experiments.robustness import parse_hands
+
+    if args.protocol.strip() != "active":
+        raise UsageError("--protocol active runs alone (it has its own objects and columns)")
+    if args.scale and args.quick and args.scale != "quick":
+        raise UsageError(f"--quick contradicts --scale {args.scale}")
+    scale = args.scale or ("quick" if args.quick else "full")
+    hands = parse_hands(args.other_hand)
+    log = (lambda msg: print(msg, file=sys.stderr, flush=True)) if log_lines(args.json) else None
+    doc = active(args.out, scale=scale, hands=hands, seed=args.seed, log=log)
+    if args.json:
+        emit_json(doc)
+        return 0
+    print((Path(args.out) / "table.md").read_text(), end="")
+    d = doc["decision_s"]
+    if d["decisions"]:
+        print(f"a planned next pose took {d['median']:.2f} s (median; at most {d['max']:.2f} s) "
+              f"over {d['decisions']} decisions")  # fmt: skip
+    print(f"results: {args.out}/active.json; wall time {doc['wall_time_s']:.0f} s")
     return 0

@@ -1,0 +1,131 @@
+"""``tactile-bullet explore``: grasp an object, and again where the hypotheses differ most,
+until the answer is sure (docs/exploration.md)."""
+
+from __future__ import annotations
+
+import argparse
+
+from ..errors import UsageError
+from .common import (
+    add_engine_flag,
+    emit_json,
+    engine_settings,
+    output_files,
+    parse_key_values,
+    parse_number,
+    parse_offset,
+    parse_rotation,
+    seed_number,
+)
+from .shape_info import add_mesh_options, mesh_shape
+
+
+def add_parser(sub) -> None:
+    parser = sub.add_parser(
+        "explore",
+        help="grasp an object, then again where the shapes in doubt differ most",
+        description="Grasp --shape (or --mesh) at the pose given; while the default "
+        "identifier's fused answer is ambiguous or unknown, choose the next pose of the hand "
+        "(along O-O', across it, turned about the palm normal, within the reachable set) where "
+        "the likely shapes, simulated at the sizes and pose the shape fit gives them, predict "
+        "the most different answers, and grasp there; up to --max-grasps.",
+    )
+    source = parser.add_mutually_exclusive_group(required=True)
+    source.add_argument("--shape", help="the object: a registered shape")
+    source.add_argument("--mesh", metavar="FILE", help="the object: a mesh file")
+    add_mesh_options(parser)
+    parser.add_argument(
+        "--param", action="append", metavar="KEY=VALUE", help="shape size in metres (repeatable)"
+    )
+    parser.add_argument(
+        "--offset", default="0,0,0", metavar="X,Y,Z",
+        help="the first grasp's object offset in metres (default 0,0,0; reachable: +-0.015 "
+        "along O-O', +-0.010 along the fingers)",
+    )  # fmt: skip
+    parser.add_argument(
+        "--rotation", default="0", metavar="DEG",
+        help="the first grasp's object rotation about the palm normal, degrees (reachable: "
+        "+-25; default 0)",
+    )  # fmt: skip
+    parser.add_argument(
+        "--max-grasps", type=_grasps, default=3, metavar="K", help="at most K grasps (default 3)"
+    )
+    parser.add_argument(
+        "--strategy", choices=("planned", "random", "repeat"), default="planned",
+        help="how the next pose is chosen: planned (expected information gain, the default), "
+        "random (a reachable move) or repeat (the same pose): the baselines",
+    )  # fmt: skip
+    parser.add_argument("--plot", metavar="PNG", help="draw the posterior after each grasp")
+    parser.add_argument("--force", action="store_true", help="replace an existing --plot")
+    parser.add_argument("--seed", type=seed_number, default=0, help="seed (random strategy)")
+    add_engine_flag(parser, hand_model=True)
+    parser.add_argument("--json", action="store_true", help="print one JSON document")
+    parser.set_defaults(run=run)
+
+
+def _grasps(text: str) -> int:
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"must be a whole number, got {text!r}") from None
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"must be at least 1, got {value}")
+    return value
+
+
+def run(args: argparse.Namespace) -> int:
+    from ..experiments.exploration import check_reachable, explore
+    from ..records import ControllerSettings, Pose
+
+    params = {k: parse_number(v, f"--param {k}") for k, v in parse_key_values(args.param).items()}
+    pose = check_reachable(Pose(parse_offset(args.offset), parse_rotation(args.rotation)),
+                           "the first pose")  # fmt: skip
+    outputs = output_files({"plot": args.plot}, args.force)
+    if "plot" in outputs:
+        from .common import image_file
+
+        image_file(outputs["plot"], "--plot", "matplotlib")
+    from ..sim.grasp import resolve_shape
+
+    target = mesh_shape(args) or resolve_shape(args.shape)
+    if args.mesh and args.param:
+        raise UsageError("--param sizes a --shape; a --mesh has its own size")
+    controller = ControllerSettings(**engine_settings(args))
+    log = None if args.json else print
+    doc = explore(target, params or None, pose, controller, max_grasps=args.max_grasps,
+                  strategy=args.strategy, seed=args.seed, log=log)  # fmt: skip
+    doc.pop("fused")
+    from ..learn.default import default_meta
+
+    meta = default_meta()
+    fused = doc["answer"]
+    doc["answer"] = {
+        "shape": fused["shape"], "identifier": "default",
+        "method": {"name": meta.get("method"), "training": meta.get("training")},
+        "probabilities": fused["posterior"], "ambiguous": fused["ambiguous"],
+        "unknown": fused["unknown"], "grasps": fused["grasps"],
+    }  # fmt: skip
+    doc["object"] = {"shape": getattr(target, "name", str(target)), "params": params}
+    if "plot" in outputs:
+        from ..experiments.figures_exploration import plot_posteriors
+
+        plot_posteriors(doc, outputs["plot"])
+        doc["outputs"] = {"plot": str(outputs["plot"])}
+    if args.json:
+        emit_json(doc)
+        return 0
+    answer = doc["answer"]
+    p = answer["probabilities"][answer["shape"]]
+    line = f"identified after {answer['grasps']} grasp(s): {answer['shape']} (posterior {p:.2f})"
+    if answer["unknown"]:
+        line = (f"identified after {answer['grasps']} grasp(s): UNKNOWN - unlike every grasp "
+                f"the default identifier learnt; best guess {answer['shape']}")  # fmt: skip
+    elif answer["ambiguous"]:
+        line += f" - AMBIGUOUS: {answer['ambiguous'][0]} or {answer['ambiguous'][1]}"
+    print(line)
+    for d in doc["decisions"]:
+        print(f"  a next pose chosen in {d['seconds']:.2f} s from {d['simulated']} simulated "
+              f"grasps of {', '.join(h for h, _ in d['hypotheses'])}")  # fmt: skip
+    if "plot" in outputs:
+        print(f"wrote plot: {outputs['plot']}")
+    return 0

@@ -1,0 +1,158 @@
+"""The ``active`` protocol: accuracy after 1, 2 and 3 grasps of one object, with the next pose
+planned (:mod:`.exploration`), drawn at random among the reachable moves, or the first pose
+repeated; and, with the stopping rule (grasp again only while the fused answer is ambiguous
+or unknown), the accuracy reached and the grasps used.
+
+Its columns are the hard cases of issue 28, each on MuJoCo (a decision is simulated there):
+objects near two families' border (a torus whose tube nearly closes the hole, a hyperboloid
+with a slight waist, a short wide cylinder turned 20 deg), the five shapes at unseen poses
+(offsets to +-10 mm, turned 10-25 deg), and, where ``--other-hand`` names their models, the
+hands written by others. Every strategy grasps the same objects at the same first pose; each
+sequence runs to three grasps, and the fused answer after each is scored.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import time
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import replace
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from ..errors import UsageError
+from ..records import ControllerSettings, Pose
+
+STRATEGIES = ("planned", "random", "repeat")
+SCALES = {"full": 8, "quick": 3, "tiny": 1}
+"""Objects per family and column, by scale."""
+GRASPS = 3
+
+
+def border_objects(n: int, rng: np.random.Generator) -> list[tuple[str, dict, Pose]]:
+    """Objects near two families' border, each at a first pose near the centre."""
+    out = []
+    for _ in range(n):
+        minor = float(rng.uniform(0.050, 0.055))
+        out.append(("torus", {"major_radius": float(rng.uniform(minor + 0.002, minor + 0.006)),
+                              "minor_radius": minor}, _centre(rng)))  # fmt: skip
+        waist = float(rng.uniform(0.032, 0.040))
+        out.append(("hyperboloid", {"waist_radius": waist,
+                                    "end_radius": waist + float(rng.uniform(0.004, 0.008))},
+                    _centre(rng)))  # fmt: skip
+        out.append(("cylinder", {"radius": float(rng.uniform(0.045, 0.055)),
+                                 "length": float(rng.uniform(0.10, 0.12))},
+                    replace(_centre(rng), rotation=math.radians(20.0))))  # fmt: skip
+    return out
+
+
+def _centre(rng: np.random.Generator) -> Pose:
+    return Pose((float(rng.uniform(-0.003, 0.003)), 0.0, float(rng.uniform(-0.002, 0.002))))
+
+
+def posed_objects(n: int, rng: np.random.Generator) -> list[tuple[str, dict, Pose]]:
+    """The five shapes at middle sizes, at poses the default never trained on."""
+    from ..objects.shapes import BUILTIN_SHAPES
+
+    table = {s.name: s for s in BUILTIN_SHAPES}
+    out = []
+    for _ in range(n):
+        for shape in ("cone", "torus", "sphere", "hyperboloid", "cylinder"):
+            spec = table[shape]
+            frac = float(rng.uniform(0.25, 0.75))
+            params = {k: p.min + frac * (p.max - p.min) for k, p in spec.params.items()}
+            x = float(rng.choice([-0.010, 0.010]))
+            deg = float(rng.uniform(10.0, 25.0)) * float(rng.choice([-1, 1]))
+            out.append((shape, params, Pose((x, 0.0, float(rng.uniform(-0.005, 0.005))),
+                                            math.radians(deg))))  # fmt: skip
+    return out
+
+
+def columns(scale: str, hands: Mapping[str, str], seed: int = 0) -> dict[str, tuple]:
+    """Column -> (controller, objects)."""
+    from ..datasets.sweeps import geometry_ok
+
+    n = SCALES[scale]
+    rng = np.random.default_rng(seed)
+    mujoco = ControllerSettings(engine="mujoco")
+    out = {
+        "border": (mujoco, border_objects(n, rng)),
+        "unseen-poses": (mujoco, posed_objects(n, rng)),
+    }
+    for name, path in sorted(hands.items()):
+        ctl = replace(mujoco, hand_model=str(Path(path).resolve()))
+        out[name] = (ctl, posed_objects(n, np.random.default_rng(seed + 1)))
+    return {k: (c, [o for o in objs if geometry_ok(o[0], o[1])]) for k, (c, objs) in out.items()}
+
+
+def run_active(
+    out: str | os.PathLike,
+    scale: str = "quick",
+    hands: Mapping[str, str] | None = None,
+    seed: int = 0,
+    log: Callable[[str], None] | None = None,
+) -> dict[str, Any]:
+    """Run every strategy on every column's objects; write ``active.json`` and ``table.md``."""
+    from ..learn.default import default_model
+    from .exploration import SimulationCache, explore, settled
+    from .reports import write_json, write_text_atomic
+
+    if scale not in SCALES:
+        raise UsageError(f"unknown scale {scale!r} (known: {', '.join(SCALES)})")
+    out = Path(out)
+    if out.exists() and any(out.iterdir()):
+        raise UsageError(f"--out {out} is not empty: choose another")
+    out.mkdir(parents=True, exist_ok=True)
+    say = log or (lambda _m: None)
+    model = default_model()
+    started = time.perf_counter()
+    rows = []
+    decisions = []
+    for column, (controller, objects) in columns(scale, hands or {}, seed).items():
+        for strategy in STRATEGIES:
+            after = np.zeros((len(objects), GRASPS), bool)
+            stop_right, stop_used = [], []
+            for i, (shape, params, first) in enumerate(objects):
+                cache = SimulationCache()
+                doc = explore(shape, params, first, controller, max_grasps=GRASPS, model=model,
+                              strategy=strategy, seed=seed + i, cache=cache,
+                              until_settled=False)  # fmt: skip
+                decisions += [d["seconds"] for d in doc["decisions"]]
+                fused = doc["fused"]
+                for k in range(GRASPS):
+                    after[i, k] = fused[min(k, len(fused) - 1)]["shape"] == shape
+                stop = next((k for k, f in enumerate(fused) if settled(f)), len(fused) - 1)
+                stop_right.append(fused[stop]["shape"] == shape)
+                stop_used.append(stop + 1)
+            row = {"column": column, "strategy": strategy, "objects": len(objects),
+                   "after": [float(v) for v in after.mean(axis=0)],
+                   "with_stopping": float(np.mean(stop_right)),
+                   "mean_grasps": float(np.mean(stop_used))}  # fmt: skip
+            rows.append(row)
+            say(f"{column} {strategy}: after 1/2/3 grasps "
+                + "/".join(f"{100 * v:.0f}" for v in row["after"])
+                + f"%, with stopping {100 * row['with_stopping']:.0f}% in "
+                f"{row['mean_grasps']:.2f} grasps")  # fmt: skip
+    doc = {"config": {"scale": scale, "seed": seed, "hands": dict(hands or {})}, "rows": rows,
+           "decision_s": {"median": float(np.median(decisions)) if decisions else None,
+                          "max": float(np.max(decisions)) if decisions else None,
+                          "decisions": len(decisions)},
+           "wall_time_s": time.perf_counter() - started}  # fmt: skip
+    write_json(out / "active.json", doc)
+    write_text_atomic(out / "table.md", table_text(rows))
+    return doc
+
+
+def table_text(rows: Sequence[Mapping[str, Any]]) -> str:
+    head = ["column", "next pose", "objects", "1 grasp", "2 grasps", "3 grasps",
+            "with stopping", "grasps used"]  # fmt: skip
+    lines = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
+    for r in rows:
+        lines.append("| " + " | ".join([r["column"], r["strategy"], str(r["objects"]),
+                                          *(f"{100 * v:.1f}" for v in r["after"]),
+                                          f"{100 * r['with_stopping']:.1f}",
+                                          f"{r['mean_grasps']:.2f}"]) + " |")  # fmt: skip
+    return "\n".join(lines) + "\n"

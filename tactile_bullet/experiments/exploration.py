@@ -1,0 +1,412 @@
+"""Beyond one grasp: when in doubt, grasp again where the hypotheses differ most.
+
+One grasp leaves some objects in doubt (docs/robustness.md): a turned cylinder reads as a
+cone, a fat torus as a sphere. A second grasp at another pose separates them when the
+remaining hypotheses predict different joint angles there. This module chooses that pose and
+fuses the grasps' answers:
+
+- **Fusion** (:func:`fuse`): the posterior over shapes after k grasps is the normalised product
+  of each grasp's probabilities, each first mixed with ``SMOOTHING`` of a uniform answer (a
+  knn's 0/0.2/../1 probabilities would otherwise let one grasp veto a shape for good);
+  ``ambiguous`` where the best shape's posterior is under ``SURE`` (after one grasp, also where
+  that grasp's own answer is ambiguous: its second opinion disagrees), ``unknown`` where at
+  least half the grasps were answered unknown.
+- **Planning** (:func:`next_pose`): each hypothesis is a shape family with the sizes and pose
+  the training-free shape fit gives it on the first grasp. For each candidate move of the hand
+  (:data:`MOVES`: along O-O', across it, turned about the palm normal) that keeps the grasp in
+  the reachable set (:data:`REACH`), every likely hypothesis is simulated at its pose moved so
+  (its fitted sizes, and ``SIZE_STEP`` larger and smaller); the model reads each simulated
+  grasp, and the move whose expected posterior entropy is lowest (the largest expected
+  information gain) is chosen. Simulations are cached by object and pose, so a second decision
+  on the same object costs only its new poses.
+
+Poses here are the object's pose relative to the hand (``Pose``), as every grasp takes it; a
+move of the hand by (dx, dz, dalpha) moves the object by the opposite in the hand's frame, and
+the planner only ever adds moves to the first grasp's pose, so a real hand's driver can run
+the loop with relative moves (``next_pose`` returns the pose; the move is its difference from
+the first grasp's).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from ..errors import UsageError
+from ..records import ControllerSettings, GraspRecord, Pose
+
+SMOOTHING = 0.05
+"""Share of a uniform answer mixed into each grasp's probabilities before they are fused."""
+SURE = 0.8
+"""Posterior of the best shape at or above which a fused answer is not ambiguous."""
+REACH = (0.015, 0.010, 25.0)
+"""The reachable set: |offset along O-O'| (m), |offset along the fingers| (m), |rotation about
+the palm normal| (deg). The fitted poses the shape fit searches, less a margin: a grasp beyond
+it misses fingers or turns the object out of the calibrated range."""
+MOVES: tuple[tuple[float, float, float], ...] = (
+    (0.010, 0.0, 0.0), (-0.010, 0.0, 0.0), (0.0, 0.005, 0.0), (0.0, -0.005, 0.0),
+    (0.0, 0.0, 20.0), (0.0, 0.0, -20.0), (0.0, 0.0, 0.0),
+)  # fmt: skip
+"""Candidate moves from the first grasp's pose: (dx m, dz m, dalpha deg); the last repeats it."""
+HYPOTHESES = 3
+"""Most likely shapes simulated per decision."""
+SIZE_STEP = 0.08
+"""Relative size change of the second and third simulated outcome of each hypothesis."""
+OUTCOMES = 1
+"""Simulated outcomes per hypothesis and move (fitted sizes, then larger, then smaller): one
+keeps a decision near a second on MuJoCo (docs/exploration.md)."""
+
+
+@dataclass(frozen=True)
+class Grasp:
+    """One grasp of the object: its record and the pose it was made at."""
+
+    record: GraspRecord
+    pose: Pose
+
+
+def check_reachable(pose: Pose, what: str = "pose") -> Pose:
+    """``pose`` if it lies in :data:`REACH`, else a UsageError saying which bound it passes."""
+    x, _, z = pose.offset
+    deg = math.degrees(pose.rotation)
+    limits = (("offset along O-O'", x, REACH[0], "m"), ("offset along the fingers", z, REACH[1],
+              "m"), ("rotation", deg, REACH[2], "deg"))  # fmt: skip
+    for name, value, bound, unit in limits:
+        if abs(value) > bound + 1e-12:
+            raise UsageError(f"{what}: {name} {value:g} {unit} is outside the reachable set "
+                             f"(+-{bound:g} {unit}; docs/exploration.md)")  # fmt: skip
+    return pose
+
+
+def moved(pose: Pose, move: Sequence[float]) -> Pose:
+    """``pose`` with a move (dx m, dz m, dalpha deg) added."""
+    x, y, z = pose.offset
+    return Pose((x + move[0], y, z + move[1]), pose.rotation + math.radians(move[2]))
+
+
+def reachable_moves(first: Pose, moves=MOVES) -> list[tuple[float, float, float]]:
+    """The moves that keep the first grasp's pose in the reachable set."""
+    out = []
+    for move in moves:
+        try:
+            check_reachable(moved(first, move))
+        except UsageError:
+            continue
+        out.append(tuple(move))
+    return out
+
+
+# --- fusing grasps ------------------------------------------------------------------------------
+
+
+def smoothed(proba: np.ndarray) -> np.ndarray:
+    """Probabilities mixed with ``SMOOTHING`` of a uniform answer (rows sum to 1)."""
+    proba = np.asarray(proba, float)
+    return (1 - SMOOTHING) * proba + SMOOTHING / proba.shape[-1]
+
+
+def fuse(probas: Sequence[np.ndarray]) -> np.ndarray:
+    """The posterior over the model's classes after the grasps whose probabilities are
+    ``probas`` (a uniform prior; each grasp's answer smoothed)."""
+    log = np.sum([np.log(smoothed(p)) for p in probas], axis=0)
+    post = np.exp(log - log.max())
+    return post / post.sum()
+
+
+def _entropy(p: np.ndarray) -> float:
+    p = np.asarray(p, float)
+    p = p[p > 0]
+    return float(-(p * np.log2(p)).sum())
+
+
+def grasp_answers(model, records: Sequence[GraspRecord]) -> list[dict[str, Any]]:
+    """Each grasp's own answer (``training.identify``'s document), without the progress
+    lines of each one-grasp second opinion (the loop reports per grasp itself)."""
+    from ..console import reporting
+    from .training import identify
+
+    with reporting(False):
+        return [identify(model, r) for r in records]
+
+
+def probabilities(model, answer: Mapping[str, Any]) -> np.ndarray:
+    """An answer's probabilities in the model's class order (uniform where it named none)."""
+    classes = [str(c) for c in model.classes]
+    probs = answer.get("probabilities") or {}
+    if not probs:
+        return np.full(len(classes), 1.0 / len(classes))
+    return np.array([float(probs.get(c, 0.0)) for c in classes])
+
+
+def fused_answer(model, answers: Sequence[Mapping[str, Any]]) -> dict[str, Any]:
+    """The answer after every grasp so far: ``shape`` (the posterior's best), ``posterior``
+    ({shape: p}), ``ambiguous`` ([best, runner-up] while the best is under ``SURE``, else
+    None) and ``unknown`` (at least half the grasps answered unknown)."""
+    classes = [str(c) for c in model.classes]
+    post = fuse([probabilities(model, a) for a in answers])
+    order = np.argsort(-post)
+    best, second = classes[order[0]], classes[order[1]]
+    unknown = sum(bool(a.get("unknown")) for a in answers) * 2 >= len(answers)
+    ambiguous = None if post[order[0]] >= SURE else [best, second]
+    if len(answers) == 1 and answers[0].get("ambiguous"):  # one grasp: its own doubt stands
+        ambiguous = list(answers[0]["ambiguous"])
+    return {
+        "shape": best,
+        "posterior": {c: float(p) for c, p in zip(classes, post, strict=True)},
+        "ambiguous": ambiguous,
+        "unknown": bool(unknown),
+        "grasps": len(answers),
+    }
+
+
+def settled(answer: Mapping[str, Any]) -> bool:
+    """Whether a fused answer needs no further grasp."""
+    return answer["ambiguous"] is None and not answer["unknown"]
+
+
+# --- planning -----------------------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class Hypothesis:
+    """A shape the object may be: the family, its fitted sizes and its fitted pose at the
+    first grasp, and its posterior."""
+
+    shape: str
+    params: dict[str, float]
+    pose: Pose
+    weight: float
+
+
+def hypotheses(model, grasps: Sequence[Grasp], answer: Mapping[str, Any],
+               k: int = HYPOTHESES) -> list[Hypothesis]:  # fmt: skip
+    """The ``k`` likeliest shapes the shape fit can model, each with the sizes and pose it
+    fits to the first grasp."""
+    from ..learn.robust import angles_for_shape_fit
+    from ..perception.shape_fit import fit_family, fitted_shapes
+
+    modelled = set(fitted_shapes())
+    ranked = sorted(answer["posterior"].items(), key=lambda kv: -kv[1])
+    out = []
+    first = grasps[0]
+    angles = angles_for_shape_fit(first.record)
+    for shape, weight in ranked:
+        if shape not in modelled or weight <= 0:
+            continue
+        fit = fit_family(angles, shape)
+        x, z = fit.offset
+        pose = Pose((x, 0.0, z), math.radians(fit.rotation_deg))
+        out.append(Hypothesis(shape, dict(fit.params), pose, float(weight)))
+        if len(out) == k:
+            break
+    return out
+
+
+@dataclass
+class SimulationCache:
+    """Simulated hypothesis grasps, by (shape, sizes, pose, controller): a decision reuses
+    every grasp an earlier one made on the same object."""
+
+    records: dict[tuple, GraspRecord] = field(default_factory=dict)
+    simulated: int = 0
+
+    def grasp(self, shape: str, params: Mapping[str, float], pose: Pose,
+              controller: ControllerSettings) -> GraspRecord | None:  # fmt: skip
+        from ..sim.grasp import simulate_grasp
+
+        key = (shape, tuple(sorted((k, round(v, 5)) for k, v in params.items())),
+               tuple(round(v, 5) for v in pose.offset), round(pose.rotation, 5),
+               controller)  # fmt: skip
+        if key not in self.records:
+            try:
+                self.records[key] = simulate_grasp(shape, params, pose, controller)
+            except UsageError:  # a size or pose the simulator refuses: no outcome there
+                self.records[key] = None
+            self.simulated += 1
+        return self.records[key]
+
+
+def _outcomes(h: Hypothesis, n: int) -> list[dict[str, float]]:
+    """The hypothesis's fitted sizes, then scaled by +-SIZE_STEP, clipped to its ranges."""
+    from ..plugins import get_shape
+
+    spec = get_shape(h.shape)
+    scales = (1.0, 1.0 + SIZE_STEP, 1.0 - SIZE_STEP)[:n]
+    out = []
+    for s in scales:
+        sizes = {}
+        for name, value in h.params.items():
+            p = spec.params[name]
+            sizes[name] = float(np.clip(value * s, p.min, p.max))
+        out.append(sizes)
+    return out
+
+
+def expected_gain(model, prior: np.ndarray, hyps: Sequence[Hypothesis], move, first: Pose,
+                  controller: ControllerSettings, cache: SimulationCache,
+                  outcomes: int = OUTCOMES) -> float:  # fmt: skip
+    """Expected information gain (bits) of grasping at the first pose moved by ``move``:
+    the prior's entropy minus the expected entropy of the posterior after that grasp, each
+    hypothesis weighted by its posterior and simulated at its own fitted pose moved so."""
+    weights = np.array([h.weight for h in hyps], float)
+    weights = weights / weights.sum()
+    expected = 0.0
+    for h, w in zip(hyps, weights, strict=True):
+        pose = moved(h.pose, move)
+        found = []
+        for sizes in _outcomes(h, outcomes):
+            try:
+                record = cache.grasp(h.shape, sizes, pose, controller)
+            except UsageError:
+                record = None
+            if record is not None:
+                found.append(record)
+        if not found:  # no simulated outcome: this move tells nothing about this hypothesis
+            expected += w * _entropy(prior)
+            continue
+        names, proba = model.predict_with_proba(found)
+        for row in proba if proba is not None else [None] * len(found):
+            post = fuse([prior, row]) if row is not None else prior
+            expected += w * _entropy(post) / len(found)
+    return _entropy(prior) - expected
+
+
+def next_pose(
+    grasps: Sequence[Grasp],
+    model=None,
+    controller: ControllerSettings | None = None,
+    moves: Sequence[Sequence[float]] = MOVES,
+    cache: SimulationCache | None = None,
+) -> Pose:
+    """The pose of the next grasp: among the first grasp's pose moved by each of ``moves``
+    (within the reachable set), the one whose expected information gain is the largest
+    (module doc). ``model``: the default identifier where None; ``controller``: the engine
+    and settings the hypotheses are simulated with (the first grasp's where None)."""
+    from ..learn.default import resolve_model
+
+    if not grasps:
+        raise UsageError("next_pose needs at least one grasp")
+    model = resolve_model(None) if model is None else model
+    controller = controller or grasps[0].record.controller
+    cache = cache if cache is not None else SimulationCache()
+    return plan(grasps, model, controller, moves, cache)["pose"]
+
+
+def plan(grasps: Sequence[Grasp], model, controller: ControllerSettings,
+         moves: Sequence[Sequence[float]] = MOVES,
+         cache: SimulationCache | None = None) -> dict[str, Any]:  # fmt: skip
+    """:func:`next_pose`'s decision with its reasons: ``pose``, ``move``, ``gains`` (bits,
+    per move), ``hypotheses`` and ``simulated`` (new hypothesis grasps this decision)."""
+    cache = cache if cache is not None else SimulationCache()
+    answers = grasp_answers(model, [g.record for g in grasps])
+    fused = fused_answer(model, answers)
+    prior = np.array([fused["posterior"][str(c)] for c in model.classes])
+    hyps = hypotheses(model, grasps, fused)
+    first = grasps[0].pose
+    before = cache.simulated
+    gains = {}
+    for move in reachable_moves(first, moves):
+        gains[tuple(move)] = (expected_gain(model, prior, hyps, move, first, controller, cache)
+                              if hyps else 0.0)  # fmt: skip
+    if not gains:
+        raise UsageError("no move keeps the grasp in the reachable set")
+    best = max(gains, key=lambda m: (round(gains[m], 9), -_size(m)))
+    return {"pose": moved(first, best), "move": best, "gains": gains,
+            "hypotheses": [(h.shape, h.weight) for h in hyps],
+            "simulated": cache.simulated - before}  # fmt: skip
+
+
+def _size(move) -> float:
+    """How far a move goes (a tie goes to the smaller move)."""
+    return abs(move[0]) / 0.01 + abs(move[1]) / 0.005 + abs(move[2]) / 20.0
+
+
+# --- the loop -----------------------------------------------------------------------------------
+
+
+def explore(
+    target,
+    params: Mapping[str, float] | None,
+    first: Pose,
+    controller: ControllerSettings,
+    max_grasps: int = 3,
+    model=None,
+    strategy: str = "planned",
+    seed: int = 0,
+    cache: SimulationCache | None = None,
+    log: Callable[[str], None] | None = None,
+    until_settled: bool = True,
+) -> dict[str, Any]:
+    """Grasp ``target`` (a shape name or Shape, with ``params``) at ``first``, then again while
+    the fused answer is ambiguous or unknown, up to ``max_grasps``; each next pose by
+    ``strategy``: ``planned`` (:func:`next_pose`), ``random`` (a reachable move drawn with
+    ``seed``) or ``repeat`` (the first pose again). Returns ``{"answer", "grasps",
+    "decisions"}``: the fused answer, one entry per grasp made (``pose``, ``answer``,
+    ``posterior``), each planning decision's cost, and ``fused``, the fused answer after each
+    grasp. ``until_settled`` False grasps ``max_grasps`` times whatever the answer (the
+    ``active`` protocol scores every count)."""
+    import time
+
+    from ..learn.default import resolve_model
+    from ..sim.grasp import simulate_grasp
+
+    if strategy not in ("planned", "random", "repeat"):
+        raise UsageError(f"unknown strategy {strategy!r} (planned, random, repeat)")
+    if isinstance(max_grasps, bool) or not isinstance(max_grasps, int) or max_grasps < 1:
+        raise UsageError(f"--max-grasps must be a whole number >= 1, got {max_grasps!r}")
+    check_reachable(first, "the first pose")
+    model = resolve_model(None) if model is None else model
+    cache = cache if cache is not None else SimulationCache()
+    rng = np.random.default_rng(seed)
+    say = log or (lambda _m: None)
+    grasps: list[Grasp] = []
+    entries: list[dict[str, Any]] = []
+    decisions: list[dict[str, Any]] = []
+    history: list[dict[str, Any]] = []
+    pose = first
+    while True:
+        record = simulate_grasp(target, params, pose, controller, seed=seed)
+        grasps.append(Grasp(record, pose))
+        answers = grasp_answers(model, [g.record for g in grasps])
+        fused = fused_answer(model, answers)
+        history.append(fused)
+        entries.append({"pose": _pose_doc(pose), "answer": answers[-1],
+                        "posterior": fused["posterior"]})  # fmt: skip
+        say(f"grasp {len(grasps)} at {_pose_text(pose)}: {answers[-1]['shape']}; posterior "
+            f"best {fused['shape']} {fused['posterior'][fused['shape']]:.2f}")  # fmt: skip
+        if (until_settled and settled(fused)) or len(grasps) >= max_grasps:
+            break
+        started = time.perf_counter()
+        if strategy == "planned":
+            decision = plan(grasps, model, controller, cache=cache)
+            pose = decision["pose"]
+            decisions.append({"move": list(decision["move"]),
+                              "gains_bits": {str(list(m)): g for m, g in
+                                             decision["gains"].items()},
+                              "hypotheses": decision["hypotheses"],
+                              "simulated": decision["simulated"],
+                              "seconds": time.perf_counter() - started})  # fmt: skip
+        elif strategy == "random":
+            options = [m for m in reachable_moves(first) if any(m)]
+            pose = moved(first, options[int(rng.integers(len(options)))])
+        else:
+            pose = first
+    return {"answer": fused, "grasps": entries, "decisions": decisions, "fused": history}
+
+
+def _pose_doc(pose: Pose) -> dict[str, Any]:
+    return {"offset": list(pose.offset), "rotation_deg": math.degrees(pose.rotation)}
+
+
+def _pose_text(pose: Pose) -> str:
+    x, _, z = pose.offset
+    return (f"offset {1000 * x:+.0f} mm along O-O', {1000 * z:+.0f} mm along the fingers, "
+            f"turned {math.degrees(pose.rotation):+.0f} deg")  # fmt: skip
+
+
+__all__ = ["Grasp", "MOVES", "REACH", "check_reachable", "explore", "fuse", "fused_answer",
+           "next_pose", "plan"]  # fmt: skip

@@ -1,0 +1,122 @@
+"""Beyond one grasp (experiments/exploration.py, docs/exploration.md): fusing grasps, the
+reachable set, the planner's choice, and the ``explore`` command."""
+
+from __future__ import annotations
+
+import json
+import math
+
+import numpy as np
+import pytest
+
+from tactile_bullet.errors import UsageError
+from tactile_bullet.experiments import exploration as E
+from tactile_bullet.records import ControllerSettings, Pose
+from tests.cli_helpers import run_error
+
+
+class _Model:
+    classes = ["a", "b", "c"]
+
+
+def _answer(p, unknown=False, ambiguous=None):
+    return {"probabilities": dict(zip(_Model.classes, p, strict=True)), "unknown": unknown,
+            "ambiguous": ambiguous}  # fmt: skip
+
+
+def test_two_grasps_that_agree_are_surer_than_either():
+    one = E.fused_answer(_Model(), [_answer([0.7, 0.3, 0.0])])
+    two = E.fused_answer(_Model(), [_answer([0.7, 0.3, 0.0]), _answer([0.8, 0.2, 0.0])])
+    assert one["shape"] == two["shape"] == "a"
+    assert two["posterior"]["a"] > max(0.7, 0.8, one["posterior"]["a"])
+    assert one["ambiguous"] == ["a", "b"] and two["ambiguous"] is None
+
+
+def test_one_grasp_cannot_veto_a_shape_for_good():
+    # a knn says 0 for "a" once; two later grasps that favour "a" still bring it back
+    post = E.fuse([np.array([0.0, 1.0, 0.0]), np.array([0.9, 0.1, 0.0]),
+                   np.array([0.9, 0.1, 0.0])])  # fmt: skip
+    assert post.argmax() == 0 and np.isclose(post.sum(), 1.0)
+
+
+def test_a_single_grasp_keeps_its_own_doubt_and_unknown_needs_half_the_grasps():
+    sure_but_seconded = _answer([0.95, 0.05, 0.0], ambiguous=["a", "c"])
+    assert E.fused_answer(_Model(), [sure_but_seconded])["ambiguous"] == ["a", "c"]
+    answers = [_answer([0.9, 0.1, 0.0], unknown=True), _answer([0.9, 0.1, 0.0]),
+               _answer([0.9, 0.1, 0.0])]  # fmt: skip
+    assert E.fused_answer(_Model(), answers)["unknown"] is False
+    assert E.fused_answer(_Model(), answers[:2])["unknown"] is True
+
+
+def test_every_planned_pose_is_reachable_from_any_reachable_first_pose():
+    for first in (Pose(), Pose((0.015, 0.0, -0.010), math.radians(-25.0)),
+                  Pose((-0.005, 0.0, 0.01), math.radians(10.0))):  # fmt: skip
+        moves = E.reachable_moves(first)
+        assert moves and (0.0, 0.0, 0.0) in moves
+        for move in moves:
+            E.check_reachable(E.moved(first, move))
+    with pytest.raises(UsageError, match="reachable set"):
+        E.check_reachable(Pose((0.02, 0.0, 0.0)))
+    with pytest.raises(UsageError, match="rotation"):
+        E.check_reachable(Pose(rotation=math.radians(30.0)))
+
+
+@pytest.mark.slow
+def test_the_planner_moves_where_the_hypotheses_differ_and_caches_its_simulations():
+    """A hyperboloid with a slight waist, grasped off centre, reads as a cylinder or a
+    hyperboloid: the planner simulates both (as fitted) at every reachable move and picks a
+    move that is expected to tell them apart; a second decision on the same object reuses
+    every simulated grasp."""
+    from tactile_bullet.sim.grasp import simulate_grasp
+
+    ctl = ControllerSettings(engine="mujoco")
+    first = Pose((0.008, 0.0, 0.0))
+    record = simulate_grasp("hyperboloid", {"waist_radius": 0.035}, first, ctl)
+    cache = E.SimulationCache()
+    from tactile_bullet.learn.default import default_model
+
+    decision = E.plan([E.Grasp(record, first)], default_model(), ctl, cache=cache)
+    E.check_reachable(decision["pose"])
+    names = [h for h, _ in decision["hypotheses"]]
+    assert {"cylinder", "hyperboloid"} <= set(names)
+    assert decision["gains"][decision["move"]] == max(decision["gains"].values())
+    assert decision["gains"][decision["move"]] > 0
+    assert decision["simulated"] == len(decision["gains"]) * len(names)
+    again = E.plan([E.Grasp(record, first)], default_model(), ctl, cache=cache)
+    assert again["simulated"] == 0 and again["pose"] == decision["pose"]
+
+
+@pytest.mark.slow
+def test_explore_json_has_the_answer_and_every_grasp(capsys, tmp_path):
+    plot = tmp_path / "posterior.png"
+    argv = ["explore", "--shape", "sphere", "--param", "radius=0.05", "--engine", "mujoco",
+            "--max-grasps", "2", "--plot", str(plot), "--json"]  # fmt: skip
+    from tactile_bullet.cli import main
+
+    assert main(argv) == 0
+    doc = json.loads(capsys.readouterr().out)
+    assert doc["answer"]["shape"] == "sphere" and doc["answer"]["identifier"] == "default"
+    assert 1 <= doc["answer"]["grasps"] == len(doc["grasps"]) <= 2
+    for g in doc["grasps"]:
+        assert set(g) == {"pose", "answer", "posterior"}
+        assert math.isclose(sum(g["posterior"].values()), 1.0)
+    assert plot.stat().st_size > 0
+
+
+@pytest.mark.parametrize(
+    "args, message",
+    [
+        (["--max-grasps", "0"], "at least 1"),
+        (["--max-grasps", "two"], "whole number"),
+        (["--offset", "0.018,0,0"], "reachable set"),
+        (["--rotation", "28"], "reachable set"),
+        (["--strategy", "greedy"], "invalid choice"),
+    ],
+)
+def test_explore_refuses_bad_input_before_any_grasp(capsys, args, message):
+    assert message in run_error(capsys, ["explore", "--shape", "sphere", *args])
+
+
+def test_next_pose_needs_a_grasp():
+    with pytest.raises(UsageError, match="at least one grasp"):
+        E.next_pose([])

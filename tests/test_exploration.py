@@ -120,3 +120,52 @@ def test_explore_refuses_bad_input_before_any_grasp(capsys, args, message):
 def test_next_pose_needs_a_grasp():
     with pytest.raises(UsageError, match="at least one grasp"):
         E.next_pose([])
+
+
+def _csv_with_objects(records, path, object_of_row):
+    """Export ``records`` as a hand's CSV, then add an ``object`` column (value per row from
+    ``object_of_row(grasp_number, row_in_grasp)``)."""
+    import csv
+
+    from tactile_bullet.realhand.export import export
+
+    export(records, path, "csv")
+    rows = list(csv.reader(path.open()))
+    head, body = rows[0], rows[1:]
+    grasp_col = head.index("grasp")
+    seen: dict[str, int] = {}
+    out = [head + ["object"]]
+    for row in body:
+        k = int(row[grasp_col])
+        seen[k] = seen.get(k, -1) + 1
+        out.append(row + [object_of_row(k, seen[k])])
+    with path.open("w", newline="") as fh:
+        csv.writer(fh).writerows(out)
+    return path
+
+
+def test_identify_recording_fuses_the_grasps_marked_as_one_object(synthetic_split, tmp_path,
+                                                                   capsys):
+    from tactile_bullet.cli import main
+
+    _, test = synthetic_split
+    records = [r for r in test if r.shape == test[0].shape][:2] + \
+        [r for r in test if r.shape != test[0].shape][:1]  # fmt: skip
+    path = _csv_with_objects(records, tmp_path / "session.csv",
+                             lambda k, _row: "mug" if k <= 2 else "other")  # fmt: skip
+    assert main(["identify", "--recording", str(path), "--json"]) == 0
+    doc = json.loads(capsys.readouterr().out)
+    assert [g["object"] for g in doc["grasps"]] == ["mug", "mug", "other"]
+    objects = {o["object"]: o for o in doc["objects"]}
+    assert objects["mug"]["grasps"] == [0, 1] and objects["other"]["grasps"] == [2]
+    fused = objects["mug"]["posterior"]
+    assert math.isclose(sum(fused.values()), 1.0)
+
+
+def test_object_marks_that_disagree_with_the_grasps_are_refused(synthetic_split, tmp_path,
+                                                                capsys):
+    _, test = synthetic_split
+    path = _csv_with_objects(test[:2], tmp_path / "session.csv",
+                             lambda k, row: "a" if k == 2 or row < 3 else "b")  # fmt: skip
+    err = run_error(capsys, ["identify", "--recording", str(path)])
+    assert "spans rows of objects a, b" in err

@@ -146,7 +146,7 @@ def identify_recording(args: argparse.Namespace) -> int:
     import time
 
     from ..learn.default import resolve_model
-    from ..realhand.recordings import identify_grasps, read_recording
+    from ..realhand.recordings import fused_objects, identify_grasps, read_recording
 
     if args.param or args.offset != "0,0,0" or args.rotation != "0":
         raise UsageError(
@@ -167,6 +167,7 @@ def identify_recording(args: argparse.Namespace) -> int:
         "identify_time_s": time.perf_counter() - start,
     }
     doc["tally"] = recording_tally(answers)
+    doc["objects"] = fused_objects(model, answers)
     if len(answers) == 1:  # the one-grasp contract of `identify --json`
         doc["shape"], doc["probabilities"] = answers[0]["shape"], answers[0]["probabilities"]
         doc["margin"], doc["ambiguous"] = answers[0]["margin"], answers[0]["ambiguous"]
@@ -183,6 +184,13 @@ def identify_recording(args: argparse.Namespace) -> int:
             doubt = " - UNKNOWN: unlike every grasp the model learnt (best guess)"
         print(f"grasp {a['index'] + 1} at {a['start_s']:.2f}-{a['end_s']:.2f} s: "
               f"{a['shape']} p={best:.3f}{doubt}{label}")  # fmt: skip
+    for o in doc["objects"]:
+        grasps = ", ".join(str(i + 1) for i in o["grasps"])
+        doubt = (" - UNKNOWN (best guess)" if o["unknown"] else
+                 f" - AMBIGUOUS: {o['ambiguous'][0]} or {o['ambiguous'][1]}" if o["ambiguous"]
+                 else "")  # fmt: skip
+        print(f"object {o['object']} (grasps {grasps}): {o['shape']} "
+              f"posterior {o['posterior'][o['shape']]:.2f}{doubt}")  # fmt: skip
     print(tally_line(doc["tally"]))
     from ..learn.doubt import batch_warning
 

@@ -173,6 +173,8 @@ class JointSamples:
     row_groups: np.ndarray | None = None
     """Tables: per row, the marker column's grasp key (0 between grasps)."""
     labels: list[str | None] = field(default_factory=list)
+    objects: list[str | None] = field(default_factory=list)
+    """Tables: per row, the ``object`` column's value (None where empty or absent)."""
     coupled: bool = False
     prefix: str = ""
 

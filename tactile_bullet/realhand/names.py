@@ -24,6 +24,9 @@ NO_MARKER = "none"
 UNKNOWN_SHAPE = "unknown"
 """Label of a recorded grasp whose object the user did not name."""
 JOINT_STATE = "sensor_msgs/msg/JointState"
+OBJECT_COLUMN = "object"
+"""Table column naming the object a grasp was made on: grasps with the same value are grasps
+of one object, which ``identify --recording`` fuses into one answer."""
 
 COUPLED_FINGERS = LONG_FINGERS
 OPTIONAL_JOINTS = frozenset({"WRJ1", "WRJ2"})

@@ -141,6 +141,8 @@ class RecordedGrasp:
     index: int
     start_s: float
     end_s: float
+    object: str | None = None
+    """The object the recording marks the grasp as made on (its ``object`` column), or None."""
 
 
 def grasps_from_samples(
@@ -159,10 +161,27 @@ def grasps_from_samples(
         )
         out.append(
             RecordedGrasp(
-                record, samples.source, k, float(samples.time[lo]), float(samples.time[hi])
+                record, samples.source, k, float(samples.time[lo]), float(samples.time[hi]),
+                _object_of(samples, lo, hi, k),
             )
         )
     return out
+
+
+def _object_of(samples: JointSamples, lo: int, hi: int, k: int) -> str | None:
+    """The one object a grasp's rows are marked with (None where unmarked); a UsageError where
+    its rows name two (the marks disagree with the grasps found)."""
+    if not samples.objects:
+        return None
+    found = sorted({v for v in samples.objects[lo : hi + 1] if v})
+    if len(found) > 1:
+        raise UsageError(
+            f"{samples.source}: grasp {k + 1} ({float(samples.time[lo]):.2f}-"
+            f"{float(samples.time[hi]):.2f} s) spans rows of objects {', '.join(found)}: the "
+            "object column disagrees with the grasps found (mark each grasp's rows, or cut the "
+            "grasps with a marker column)"
+        )
+    return found[0] if found else None
 
 
 def read_samples(
@@ -222,9 +241,10 @@ def read_recordings(
 
 def identify_grasps(model, grasps: Sequence[RecordedGrasp]) -> list[dict]:
     """The model's answer for every grasp of a recording, features computed in one batch:
-    ``{"index", "file", "start_s", "end_s", "samples", "label", "shape", "probabilities",
-    "margin", "ambiguous", "cross_check"}`` (``label`` the file's or the user's, None when unknown;
-    ``margin``/``ambiguous``/``cross_check`` as in ``workflow.identify``)."""
+    ``{"index", "file", "start_s", "end_s", "samples", "label", "object", "shape",
+    "probabilities", "margin", "ambiguous", "cross_check", "unknown", "novelty"}`` (``label``
+    the file's or the user's, None when unknown; ``object`` the recording's object mark, None
+    where unmarked; the rest as in ``workflow.identify``)."""
     records = [g.record for g in grasps]
     if not records:
         return []
@@ -248,6 +268,7 @@ def identify_grasps(model, grasps: Sequence[RecordedGrasp]) -> list[dict]:
                 "end_s": g.end_s,
                 "samples": int(g.record.time.size),
                 "label": None if g.record.shape == UNKNOWN_SHAPE else g.record.shape,
+                "object": g.object,
                 "shape": str(shape),
                 "probabilities": {c: float(p) for c, p in zip(classes, row, strict=True)},
                 **doubt,
@@ -361,3 +382,23 @@ def check_dataset_out(out: Path, force: bool) -> None:
         )
     if not force:
         raise UsageError(f"--out {out} already holds a dataset; use --force to replace it")
+
+
+def fused_objects(model, answers: Sequence[Mapping]) -> list[dict]:
+    """One fused answer per object the recording marks (grasps sharing an ``object`` mark):
+    ``{"object", "grasps": [index, ...], "shape", "posterior", "ambiguous", "unknown"}``
+    (``experiments/exploration.py``'s fusion), in order of first grasp; [] where none is
+    marked."""
+    from ..experiments.exploration import fused_answer
+
+    groups: dict[str, list[Mapping]] = {}
+    for a in answers:
+        if a.get("object") is not None:
+            groups.setdefault(str(a["object"]), []).append(a)
+    out = []
+    for name, members in groups.items():
+        fused = fused_answer(model, members)
+        out.append({"object": name, "grasps": [int(a["index"]) for a in members],
+                    "shape": fused["shape"], "posterior": fused["posterior"],
+                    "ambiguous": fused["ambiguous"], "unknown": fused["unknown"]})  # fmt: skip
+    return out

@@ -16,7 +16,14 @@ from ..files import INPUT_LIMITS, input_path
 from ..hand import JOINT_NAMES
 from .calibration import Calibration
 from .joints import JointMap, JointSamples, _check_finite, _check_time
-from .names import LABEL_COLUMN, MARKER_COLUMN, NO_MARKER, TIME_COLUMN, split_name
+from .names import (
+    LABEL_COLUMN,
+    MARKER_COLUMN,
+    NO_MARKER,
+    OBJECT_COLUMN,
+    TIME_COLUMN,
+    split_name,
+)
 
 MAX_TIME_S = 1e11
 """Largest time (s) a table may hold: seconds since 1970 are ~1.7e9, so a value over this
@@ -162,7 +169,7 @@ def read_table(
     path = Path(path)
     where = str(path)
     input_path(path, "recording", INPUT_LIMITS["table"])
-    columns = _table_columns(path, (LABEL_COLUMN, MARKER_COLUMN, marker))
+    columns = _table_columns(path, (LABEL_COLUMN, MARKER_COLUMN, OBJECT_COLUMN, marker))
     if time_column not in columns:
         raise UsageError(f"{where} has no {time_column!r} column")
     marker_column = marker if marker is not None else (
@@ -172,7 +179,7 @@ def read_table(
         marker_column = None
     if marker_column is not None and marker_column not in columns:
         raise UsageError(f"{where} has no marker column {marker_column!r}")
-    reserved = {time_column, LABEL_COLUMN, MARKER_COLUMN, marker_column}
+    reserved = {time_column, LABEL_COLUMN, MARKER_COLUMN, OBJECT_COLUMN, marker_column}
     joints, effort_cols = [], {}
     for name in columns:
         if name in reserved or name.endswith("_velocity"):
@@ -219,6 +226,7 @@ def read_table(
     if marker_column is not None:
         groups = np.array([_group_key(v) for v in columns[marker_column]], dtype=object)
     labels = [str(v) if v not in ("", None) else None for v in columns.get(LABEL_COLUMN, [])]
+    objects = [str(v) if v not in ("", None) else None for v in columns.get(OBJECT_COLUMN, [])]
     return JointSamples(
         source=where,
         time=time - time[0],
@@ -228,6 +236,7 @@ def read_table(
         has_efforts=has_eff,
         row_groups=groups,
         labels=labels,
+        objects=objects,
         coupled=jmap.coupled,
         prefix=jmap.prefix,
     )

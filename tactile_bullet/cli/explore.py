@@ -55,6 +55,11 @@ def add_parser(sub) -> None:
         help="how the next pose is chosen: planned (expected information gain, the default), "
         "random (a reachable move) or repeat (the same pose): the baselines",
     )  # fmt: skip
+    parser.add_argument(
+        "--fusion", choices=("model", "simulated"), default="model",
+        help="how later grasps are read: model (each grasp's own answer, the default) or "
+        "simulated (how well each likely shape, simulated at that pose, explains the grasp)",
+    )  # fmt: skip
     parser.add_argument("--plot", metavar="PNG", help="draw the posterior after each grasp")
     parser.add_argument("--force", action="store_true", help="replace an existing --plot")
     parser.add_argument("--seed", type=seed_number, default=0, help="seed (random strategy)")
@@ -93,7 +98,8 @@ def run(args: argparse.Namespace) -> int:
     controller = ControllerSettings(**engine_settings(args))
     log = None if args.json else print
     doc = explore(target, params or None, pose, controller, max_grasps=args.max_grasps,
-                  strategy=args.strategy, seed=args.seed, log=log)  # fmt: skip
+                  strategy=args.strategy, seed=args.seed, log=log,
+                  fusion=args.fusion)  # fmt: skip
     doc.pop("fused")
     from ..learn.default import default_meta
 

@@ -26,7 +26,9 @@ import numpy as np
 from ..errors import UsageError
 from ..records import ControllerSettings, Pose
 
-STRATEGIES = ("planned", "random", "repeat")
+STRATEGIES = ("planned", "planned+simulated", "random", "repeat")
+"""How the next pose is chosen (and, for ``planned+simulated``, the later grasps read by the
+simulated hypotheses instead of the model's own answers: exploration.simulated_likelihoods)."""
 SCALES = {"full": 8, "quick": 3, "tiny": 1}
 """Objects per family and column, by scale."""
 GRASPS = 3
@@ -117,9 +119,10 @@ def run_active(
             stop_right, stop_used = [], []
             for i, (shape, params, first) in enumerate(objects):
                 cache = SimulationCache()
+                how, _, fusion = strategy.partition("+")
                 doc = explore(shape, params, first, controller, max_grasps=GRASPS, model=model,
-                              strategy=strategy, seed=seed + i, cache=cache,
-                              until_settled=False)  # fmt: skip
+                              strategy=how, seed=seed + i, cache=cache,
+                              until_settled=False, fusion=fusion or "model")  # fmt: skip
                 decisions += [d["seconds"] for d in doc["decisions"]]
                 fused = doc["fused"]
                 for k in range(GRASPS):

@@ -163,6 +163,41 @@ def fused_answer(model, answers: Sequence[Mapping[str, Any]]) -> dict[str, Any]:
     }
 
 
+def simulated_likelihoods(model, grasps: Sequence[Grasp], hyps: Sequence[Hypothesis],
+                          controller: ControllerSettings,
+                          cache: SimulationCache) -> list[np.ndarray]:  # fmt: skip
+    """For each grasp after the first, how well each of the model's classes explains it by
+    simulation: the hypothesis of that class simulated at its fitted pose moved as the hand
+    moved, compared with the grasp in the model's features (scaled as its novelty scales
+    them); likelihood exp(-d^2 / 2 t^2) with t the novelty threshold (the spread of a grasp
+    about its nearest training grasps). A class with no hypothesis gets the least likelihood
+    any hypothesis got (the simulator says nothing for it)."""
+    novelty = getattr(model, "novelty", None)
+    if novelty is None or not hyps or len(grasps) < 2:
+        return []
+    classes = [str(c) for c in model.classes]
+    first = grasps[0].pose
+    out = []
+    for g in grasps[1:]:
+        move = (g.pose.offset[0] - first.offset[0], g.pose.offset[2] - first.offset[2],
+                math.degrees(g.pose.rotation - first.rotation))  # fmt: skip
+        observed = (model.features([g.record])[0] - novelty.centre) / novelty.scale
+        like = {}
+        for h in hyps:
+            record = cache.grasp(h.shape, h.params, moved(h.pose, move), controller)
+            if record is None:
+                continue
+            predicted = (model.features([record])[0] - novelty.centre) / novelty.scale
+            d = float(np.linalg.norm(observed - predicted))
+            like[h.shape] = math.exp(-0.5 * (d / max(novelty.threshold, 1e-9)) ** 2)
+        if not like:
+            continue
+        floor = min(like.values())
+        row = np.array([like.get(c, floor) for c in classes]) + 1e-12
+        out.append(row / row.sum())
+    return out
+
+
 def settled(answer: Mapping[str, Any]) -> bool:
     """Whether a fused answer needs no further grasp."""
     return answer["ambiguous"] is None and not answer["unknown"]
@@ -340,6 +375,7 @@ def explore(
     cache: SimulationCache | None = None,
     log: Callable[[str], None] | None = None,
     until_settled: bool = True,
+    fusion: str = "model",
 ) -> dict[str, Any]:
     """Grasp ``target`` (a shape name or Shape, with ``params``) at ``first``, then again while
     the fused answer is ambiguous or unknown, up to ``max_grasps``; each next pose by
@@ -348,7 +384,9 @@ def explore(
     "decisions"}``: the fused answer, one entry per grasp made (``pose``, ``answer``,
     ``posterior``), each planning decision's cost, and ``fused``, the fused answer after each
     grasp. ``until_settled`` False grasps ``max_grasps`` times whatever the answer (the
-    ``active`` protocol scores every count)."""
+    ``active`` protocol scores every count). ``fusion``: ``model`` (the grasps' own answers,
+    :func:`fuse`) or ``simulated`` (the first grasp's answer times, for each later grasp, how
+    well each hypothesis simulated at that pose explains it: :func:`simulated_likelihoods`)."""
     import time
 
     from ..learn.default import resolve_model
@@ -356,6 +394,8 @@ def explore(
 
     if strategy not in ("planned", "random", "repeat"):
         raise UsageError(f"unknown strategy {strategy!r} (planned, random, repeat)")
+    if fusion not in ("model", "simulated"):
+        raise UsageError(f"unknown fusion {fusion!r} (model, simulated)")
     if isinstance(max_grasps, bool) or not isinstance(max_grasps, int) or max_grasps < 1:
         raise UsageError(f"--max-grasps must be a whole number >= 1, got {max_grasps!r}")
     check_reachable(first, "the first pose")
@@ -367,12 +407,18 @@ def explore(
     entries: list[dict[str, Any]] = []
     decisions: list[dict[str, Any]] = []
     history: list[dict[str, Any]] = []
+    hyps: list[Hypothesis] | None = None
     pose = first
     while True:
         record = simulate_grasp(target, params, pose, controller, seed=seed)
         grasps.append(Grasp(record, pose))
         answers = grasp_answers(model, [g.record for g in grasps])
         fused = fused_answer(model, answers)
+        if fusion == "simulated" and len(grasps) > 1:
+            if hyps is None:
+                hyps = hypotheses(model, grasps[:1], fused_answer(model, answers[:1]))
+            rows = simulated_likelihoods(model, grasps, hyps, controller, cache)
+            fused = _with_likelihoods(model, answers, rows)
         history.append(fused)
         entries.append({"pose": _pose_doc(pose), "answer": answers[-1],
                         "posterior": fused["posterior"]})  # fmt: skip
@@ -396,6 +442,20 @@ def explore(
         else:
             pose = first
     return {"answer": fused, "grasps": entries, "decisions": decisions, "fused": history}
+
+
+def _with_likelihoods(model, answers, rows: Sequence[np.ndarray]) -> dict[str, Any]:
+    """The fused answer of the first grasp's own answer and the simulated likelihoods of the
+    later ones (``ambiguous``/``unknown`` by the rules of :func:`fused_answer`)."""
+    classes = [str(c) for c in model.classes]
+    post = fuse([probabilities(model, answers[0]), *rows])
+    order = np.argsort(-post)
+    unknown = sum(bool(a.get("unknown")) for a in answers) * 2 >= len(answers)
+    return {"shape": classes[order[0]],
+            "posterior": {c: float(p) for c, p in zip(classes, post, strict=True)},
+            "ambiguous": None if post[order[0]] >= SURE else [classes[order[0]],
+                                                              classes[order[1]]],
+            "unknown": bool(unknown), "grasps": len(answers)}  # fmt: skip
 
 
 def _pose_doc(pose: Pose) -> dict[str, Any]:

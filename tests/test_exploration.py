@@ -169,3 +169,40 @@ def test_object_marks_that_disagree_with_the_grasps_are_refused(synthetic_split,
                              lambda k, row: "a" if k == 2 or row < 3 else "b")  # fmt: skip
     err = run_error(capsys, ["identify", "--recording", str(path)])
     assert "spans rows of objects a, b" in err
+
+
+@pytest.mark.parametrize(
+    "args, message",
+    [
+        (["--protocol", "active,sim-shift"], "runs alone"),
+        (["--protocol", "active", "--other-hand", "shadow=x.xml"], "NAME=FILE"),
+    ],
+)
+def test_the_active_protocol_refuses_bad_input_before_any_grasp(tmp_path, capsys, args,
+                                                                message):
+    err = run_error(capsys, ["benchmark", *args, "--out", str(tmp_path / "a")])
+    assert message in err and not (tmp_path / "a").exists()
+
+
+def test_the_active_protocol_keeps_an_earlier_run(tmp_path, capsys):
+    out = tmp_path / "a"
+    out.mkdir()
+    (out / "active.json").write_text("{}")
+    err = run_error(capsys, ["benchmark", "--protocol", "active", "--scale", "tiny", "--out",
+                             str(out)])  # fmt: skip
+    assert "not empty" in err and (out / "active.json").read_text() == "{}"
+
+
+def test_every_hard_object_of_the_active_protocol_is_a_valid_grasp():
+    from tactile_bullet.experiments.active import columns
+
+    cols = columns("quick", {"gymnasium": "hand.xml"})
+    assert set(cols) == {"border", "unseen-poses", "gymnasium"}
+    for name, (controller, objects) in cols.items():
+        assert objects, name
+        for shape, params, pose in objects:
+            E.check_reachable(pose)
+    border = cols["border"][1]
+    tori = [p for s, p, _ in border if s == "torus"]
+    assert all(p["major_radius"] - p["minor_radius"] <= 0.006 for p in tori)  # hole nearly shut
+    assert cols["gymnasium"][0].hand_model.endswith("hand.xml")

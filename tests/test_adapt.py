@@ -12,6 +12,7 @@ import numpy as np
 import pytest
 from cli_helpers import run_error
 from synthetic import make_records
+from test_json_docs import check
 
 from tactile_bullet.cli import main
 from tactile_bullet.experiments import adapt as A
@@ -83,6 +84,7 @@ def test_adapt_keeps_the_default_where_it_names_the_hand_and_a_known_way_where_n
     lo, hi = doc["interval"]
     assert lo <= doc["accuracy"] <= hi
     assert doc["curve"] and doc["advice"]
+    check("adapt", doc)  # every field docs/json.md documents, and no other
     # a hand whose cone reads as our sphere and back: the default names them wrong, the known
     # grasps teach the swap
     swapped = [replace(r, shape=SWAP.get(r.shape, r.shape)) for r in records]

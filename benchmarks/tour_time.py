@@ -19,9 +19,7 @@ import tempfile
 import time
 from pathlib import Path
 
-sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
-
-from benchmarks._report import provenance  # noqa: E402
+from _report import provenance  # first: this checkout ahead of an installed copy
 
 REPO = Path(__file__).resolve().parent.parent
 PRELUDE = """\

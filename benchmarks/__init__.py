@@ -34,6 +34,9 @@ NEEDS: dict[str, str] = {
     "--protocol robustness --other-hand ... --out DIR`, then --cache DIR/data)",
     "known_grasps": "a full-scale robustness matrix with both hands written by others "
     "(`tactile-bullet benchmark --protocol robustness --other-hand ... --out DIR`)",
+    "adapt_hands": "a full-scale robustness matrix's cache with both hands written by others "
+    "(`tactile-bullet benchmark --protocol robustness --other-hand ... --out DIR`, then "
+    "--cache DIR/data)",
     "bench_accuracy": "no dataset; simulates the demo's protocol, minutes per seed",
     "bench_big_inputs": "no dataset; writes a ~440 MB recording and a 1.3M-triangle mesh, "
     "minutes and GBs of memory",
@@ -56,6 +59,7 @@ NEEDS: dict[str, str] = {
     "other_hand_sets": "no dataset; simulates 120 grasps a hand (~1 min) into --out, the sets "
     "the hand benchmarks read; --hand independent needs a `convert-hand` model",
     "rotation_end_to_end": "no dataset; simulates rotated grasps, ~30 s a size on two cores",
+    "tour_time": "no dataset; runs the README tour in a fresh folder (~8 min on 2 cores)",
     "sequential_experiment": "a dataset (--data DIR) or --synthetic; the `sequential` command",
     "signature_limits": "the full-scale sets a `tactile-bullet benchmark` run caches (--cache)",
     "transfer_table": "the sets a `tactile-bullet benchmark` run caches (--cache)",

@@ -198,9 +198,9 @@ def test_every_hard_object_of_the_active_protocol_is_a_valid_grasp():
 
     cols = columns("quick", {"gymnasium": "hand.xml"})
     assert set(cols) == {"border", "unseen-poses", "gymnasium"}
-    for name, (controller, objects) in cols.items():
+    for name, (_controller, objects) in cols.items():
         assert objects, name
-        for shape, params, pose in objects:
+        for _shape, _params, pose in objects:
             E.check_reachable(pose)
     border = cols["border"][1]
     tori = [p for s, p, _ in border if s == "torus"]

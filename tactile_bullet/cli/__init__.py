@@ -34,6 +34,7 @@ COMMANDS: tuple[str, ...] = (
     "compare",
     "benchmark",
     "calibrate",
+    "adapt",
     "identify",
     "explore",
     "demo",

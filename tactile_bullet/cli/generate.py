@@ -36,6 +36,11 @@ def add_parser(sub) -> None:
         "randomized or smoke (each one's size and time at the end of this help)"
     )
     source.add_argument("--config", metavar="FILE.toml", help="a sweep declared in TOML")
+    parser.add_argument(
+        "--scale", choices=("full", "small"), default="full",
+        help="a preset as declared (full, the default) or tour-sized (small: the same recipe "
+        "on tens of grasps, e.g. randomized 39 instead of 1,143; sizes below)",
+    )  # fmt: skip
     parser.add_argument("--out", required=True, help="dataset directory (new or resumed)")
     parser.add_argument(
         "--workers", type=count(0, MAX_WORKERS), default=1,
@@ -72,7 +77,12 @@ def run(args: argparse.Namespace) -> int:
 
     settings = engine_settings(args)
     engine = settings.get("engine", "bullet")
-    sweep = preset(args.preset, engine) if args.preset else Sweep.from_toml(args.config)
+    if args.config and args.scale != "full":
+        raise UsageError("--scale applies to a --preset (a --config sweep is as it declares)")
+    if args.preset:
+        sweep = preset(args.preset, engine, args.scale)
+    else:
+        sweep = Sweep.from_toml(args.config)
     if settings:
         sweep = with_engine(sweep, **settings)
     if args.cluster and args.workers != 1:

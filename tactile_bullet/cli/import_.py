@@ -21,8 +21,17 @@ def add_parser(sub) -> None:
     parser.add_argument("files", nargs="+", metavar="FILE", help="recordings to read")
     parser.add_argument("--out", required=True, metavar="DIR", help="dataset folder to write")
     parser.add_argument(
-        "--shape", metavar="NAME",
-        help="label every grasp with this shape (recordings of a known object)",
+        "--shape", metavar="NAME", action="append",
+        help="label grasps with this shape (recordings of a known object): once, every file; "
+        "once per file, the files in order (import cone.bag ball.bag --shape cone --shape "
+        "sphere)",
+    )  # fmt: skip
+    parser.add_argument(
+        "--labels", metavar="FILE.csv",
+        help="a CSV of labels: rows 'recording,shape' (every grasp of that recording) or "
+        "'recording,grasp,shape' (grasp: its index in the recording from 0, as identify "
+        "--recording numbers them); a recording is named by its path as given or its file "
+        "name; grasps it does not name stay unlabelled",
     )  # fmt: skip
     add_recording_options(parser)
     parser.add_argument("--force", action="store_true", help="replace an existing dataset")
@@ -39,8 +48,7 @@ def run(args: argparse.Namespace) -> int:
     from ..realhand.recordings import check_dataset_out, read_recording, write_dataset
 
     start = time.perf_counter()
-    if args.shape is not None and not args.shape.strip():
-        raise UsageError("--shape must not be empty")
+    shapes = file_shapes(args.files, args.shape, args.labels)
     options = recording_options(args)
     check_dataset_out(Path(args.out), args.force)  # refuse before reading gigabytes
     probe_parent(args.out, "--out")
@@ -49,9 +57,14 @@ def run(args: argparse.Namespace) -> int:
 
     for done, path in enumerate(args.files):
         tick("import: recordings read", done, len(args.files))
-        grasps = read_recording(path, shape=args.shape, **options)
+        grasps = read_recording(path, shape=shapes[done].get(None), **options)
         files.append({"file": str(path), "grasps": len(grasps)})
-        records += [g.record for g in grasps]
+        records += [relabelled(g, shapes[done]) for g in grasps]
+        beyond = [k for k in shapes[done] if k is not None and k >= len(grasps)]
+        if beyond:
+            held = plural(len(grasps), "grasp")
+            raise UsageError(f"--labels names {path} grasp {beyond[0]}, which the recording "
+                             f"does not hold ({held}, numbered from 0)")  # fmt: skip
     tick("import: recordings read", len(args.files), len(args.files))
     origin = {
         "source": "recorded",
@@ -59,7 +72,9 @@ def run(args: argparse.Namespace) -> int:
         "topic": args.topic,
         "marker": args.marker,
         "gap_s": options["gap_s"],
-        "shape": args.shape,
+        "shape": args.shape[0] if args.shape and len(args.shape) == 1 else None,
+        "shapes": args.shape if args.shape and len(args.shape) > 1 else None,
+        "labels": str(args.labels) if args.labels else None,
         "prefix": options["prefix"],
         "calibration": options["calibration"].to_dict() if options["calibration"] else None,
     }
@@ -74,3 +89,91 @@ def run(args: argparse.Namespace) -> int:
         print(f"{plural(doc['records'], 'grasp')} from {plural(len(files), 'file')} ({labels}) -> "
               f"{doc['out']}")  # fmt: skip
     return 0
+
+
+def file_shapes(
+    files: list[str], shape: list[str] | None, labels: str | None
+) -> list[dict[int | None, str]]:
+    """Each file's labels, before any recording is read: ``{None: shape}`` labels every grasp
+    of the file, ``{k: shape}`` its grasp ``k``; from ``--shape`` (once: every file; once per
+    file: in order) or a ``--labels`` CSV. Every problem is a UsageError."""
+    out: list[dict[int | None, str]] = [{} for _ in files]
+    if shape and labels:
+        raise UsageError("--shape and --labels both label the grasps: give one")
+    for name in shape or ():
+        if not name.strip():
+            raise UsageError("--shape must not be empty")
+    if shape:
+        if len(shape) == 1:
+            return [{None: shape[0].strip()} for _ in files]
+        if len(shape) != len(files):
+            raise UsageError(f"--shape is given {len(shape)} times for {len(files)} files: "
+                             "give it once (every file) or once per file, in the files' order")
+        return [{None: s.strip()} for s in shape]
+    if labels:
+        return _read_labels(labels, files)
+    return out
+
+
+def _read_labels(labels: str, files: list[str]) -> list[dict[int | None, str]]:
+    import csv
+    from pathlib import Path
+
+    from ..files import input_path
+
+    path = input_path(labels, "labels file", limit=64 << 20)
+    out: list[dict[int | None, str]] = [{} for _ in files]
+    by_path = {str(f): i for i, f in enumerate(files)}
+    by_name: dict[str, list[int]] = {}
+    for i, f in enumerate(files):
+        by_name.setdefault(Path(f).name, []).append(i)
+    try:
+        text = path.read_text(encoding="utf-8")
+    except (OSError, UnicodeDecodeError) as exc:
+        raise UsageError(f"--labels {path}: cannot read it ({exc})") from None
+    rows = [r for r in csv.reader(text.splitlines()) if r and any(c.strip() for c in r)]
+    if rows and [c.strip().lower() for c in rows[0]] in (["recording", "shape"],
+                                                          ["recording", "grasp", "shape"]):
+        rows = rows[1:]  # a header
+    if not rows:
+        raise UsageError(f"--labels {path}: no rows (recording,shape or recording,grasp,shape)")
+    for line, row in enumerate(rows, 1):
+        row = [c.strip() for c in row]
+        where = f"--labels {path}, row {line}"
+        if len(row) not in (2, 3) or not all(row):
+            raise UsageError(f"{where}: expected 'recording,shape' or 'recording,grasp,shape', "
+                             f"got {','.join(row)!r}")  # fmt: skip
+        name, shape = row[0], row[-1]
+        if name in by_path:
+            index = by_path[name]
+        elif len(by_name.get(Path(name).name, [])) == 1 and Path(name).name == name:
+            index = by_name[name][0]
+        elif len(by_name.get(name, [])) > 1:
+            raise UsageError(f"{where}: {name!r} is the name of several recordings given; "
+                             "name it by its path")  # fmt: skip
+        else:
+            raise UsageError(f"{where}: {name!r} is not one of the recordings given")
+        grasp: int | None = None
+        if len(row) == 3:
+            try:
+                grasp = int(row[1])
+            except ValueError:
+                grasp = -1
+            if grasp < 0:
+                raise UsageError(f"{where}: grasp must be an index from 0, got {row[1]!r}")
+        if grasp in out[index] and out[index][grasp] != shape:
+            which = f"{name} grasp {grasp}" if grasp is not None else name
+            raise UsageError(f"{where}: {which} is labelled twice "
+                             f"({out[index][grasp]!r} and {shape!r})")
+        out[index][grasp] = shape
+    return out
+
+
+def relabelled(grasp, by: dict[int | None, str]):
+    """The grasp's record, its shape from ``by`` (its own index first, then the file's)."""
+    from dataclasses import replace
+
+    shape = by.get(grasp.index)
+    if shape is None or shape == grasp.record.shape:
+        return grasp.record
+    return replace(grasp.record, shape=shape)

@@ -16,7 +16,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass, field, fields
+from dataclasses import dataclass, field, fields, replace
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -342,15 +342,16 @@ def _modified() -> Sweep:
     return Sweep("modified", tuple(shapes))
 
 
-def _tour() -> Sweep:
+def _tour(thesis: bool = True) -> Sweep:
     """The README tour's dataset: the five thesis shapes, each size parameter at two values
     inside its range (lengths at their default), the object at -8, 0 and +8 mm along O-O'
-    (39 grasps, under a minute with 2 workers on 2 cores): the thesis preset's recipe, small."""
+    (39 grasps, under a minute with 2 workers on 2 cores): the thesis preset's recipe, small.
+    ``thesis=False``: the same recipe over the modified shapes (``modified --scale small``)."""
     from ..objects.shapes import BUILTIN_SHAPES
 
     shapes = []
     for shape in BUILTIN_SHAPES:
-        if not shape.thesis:
+        if shape.thesis != thesis:
             continue
         params = {}
         for k, spec in shape.params.items():
@@ -463,20 +464,51 @@ def preset_help(workers: int = 2) -> str:
 
     parts = []
     for name in PRESETS:
-        n = len(PRESETS[name]().tasks(0))
+        sweep = PRESETS[name]()
+        n = len(sweep.tasks(0))
         took = duration(n * SECONDS_PER_GRASP / workers)
-        parts.append(f"{name} ({n:,} grasps, ~{took} on Bullet with --workers {workers}: "
+        m = len(small(name, sweep).tasks(0))
+        tour = f"; --scale small: {m:,}" if m != n else ""
+        parts.append(f"{name} ({n:,} grasps, ~{took} on Bullet with --workers {workers}{tour}: "
                      f"{PRESET_HELP[name]})")  # fmt: skip
     return "; ".join(parts)
 
 
-def preset(name: str, engine: str = "bullet") -> Sweep:
+SCALES = ("full", "small")
+"""``generate --scale``: a preset as declared (``full``) or tour-sized (``small``, see
+:func:`small`)."""
+
+SMALL_SAMPLES = {"temporal": 4, "sequential": 6}
+"""Random draws per class of the random presets at ``--scale small``: temporal 5 x 4 = 20
+grasps, sequential 7 x 6 = 42 (the sequential experiment holds a third of each class out and
+needs at least 3 a class)."""
+
+
+def small(name: str, sweep: Sweep) -> Sweep:
+    """A preset at the README tour's size, the same recipe on fewer grasps: the grid presets
+    over the tour's sizes and offsets (two sizes inside each range, -8/0/+8 mm along O-O'), the
+    randomized preset's hand draws kept; the random presets with fewer draws per class
+    (:data:`SMALL_SAMPLES`); ``tour`` and ``smoke`` are small already."""
+    if name in ("thesis", "randomized"):
+        return replace(sweep, name=f"{sweep.name}-small", shapes=_tour().shapes)
+    if name == "modified":
+        return replace(sweep, name=f"{sweep.name}-small", shapes=_tour(thesis=False).shapes)
+    if name in SMALL_SAMPLES:
+        return replace(sweep, name=f"{sweep.name}-small", samples=SMALL_SAMPLES[name])
+    return sweep
+
+
+def preset(name: str, engine: str = "bullet", scale: str = "full") -> Sweep:
     """A built-in sweep; ``engine`` fits the ``randomized`` preset's table to the engine that
     will run it (no contact stiffness without a soft-contact knob, the tendon's spring where a
-    tendon splits J0), which ``generate --engine`` then sets."""
+    tendon splits J0), which ``generate --engine`` then sets. ``scale="small"``: the preset at
+    the tour's size (:func:`small`)."""
     if name not in PRESETS:
         raise UsageError(f"unknown preset {name!r} (presets: {', '.join(PRESETS)})")
-    return _randomized(engine) if name == "randomized" else PRESETS[name]()
+    if scale not in SCALES:
+        raise UsageError(f"unknown scale {scale!r} (scales: {', '.join(SCALES)})")
+    sweep = _randomized(engine) if name == "randomized" else PRESETS[name]()
+    return small(name, sweep) if scale == "small" else sweep
 
 
 # --- helpers --------------------------------------------------------------------------------

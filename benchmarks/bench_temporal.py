@@ -75,7 +75,7 @@ def steps_report(pairs: list[tuple]) -> dict:
 
 
 def preset_jobs(name: str, n: int) -> list[tuple]:
-    from tactile_bullet.datasets.sweeps import preset
+    from tactile_bullet.datasets.presets import preset
 
     tasks = preset(name).tasks()
     if n <= 0:

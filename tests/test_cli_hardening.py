@@ -264,7 +264,8 @@ def test_compare_or_train_on_too_few_grasps_per_shape(tmp_path, capsys):
 
 
 def test_a_sweep_knows_its_size_without_expanding_it():
-    from tactile_bullet.datasets.sweeps import MAX_GRASPS, Sweep, preset
+    from tactile_bullet.datasets.presets import preset
+    from tactile_bullet.datasets.sweeps import MAX_GRASPS, Sweep
 
     assert preset("thesis").size() >= len(preset("thesis").tasks())
     grid = {"min": 0.0, "max": 0.001, "steps": 1_000_000}

@@ -13,7 +13,8 @@ from synthetic import SMALL_SWEEP as SMALL
 from tactile_bullet.datasets.dataset import open_dataset
 from tactile_bullet.datasets.executors import CRASH_ENV
 from tactile_bullet.datasets.generate import generate
-from tactile_bullet.datasets.sweeps import Sweep, preset
+from tactile_bullet.datasets.presets import preset
+from tactile_bullet.datasets.sweeps import Sweep
 from tactile_bullet.errors import UsageError
 
 

@@ -129,7 +129,7 @@ def test_temporal_names_the_folder_it_wrote(tmp_path, capsys):
 def test_the_temporal_preset_makes_no_impossible_grasp():
     """Every cone draw of the preset (the shape that overlapped the little finger's metacarpal)
     fits the open hand: checked as the grasp does, before any finger moves."""
-    from tactile_bullet.datasets.sweeps import preset
+    from tactile_bullet.datasets.presets import preset
     from tactile_bullet.plugins import get_engine
     from tactile_bullet.sim.grasp import PENETRATION_TOLERANCE, _frozen, resolve_shape
 

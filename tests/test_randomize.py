@@ -14,13 +14,14 @@ from synthetic import make_record, make_records
 
 from tactile_bullet import Pose, simulate_grasp
 from tactile_bullet.cli import main
+from tactile_bullet.datasets.presets import preset
 from tactile_bullet.datasets.randomize import (
     RANDOMIZED_TABLE,
     SERVO_STIFFNESS_CHOICES,
     TENDON_SPRING_RANGE,
     Randomization,
 )
-from tactile_bullet.datasets.sweeps import Sweep, preset
+from tactile_bullet.datasets.sweeps import Sweep
 from tactile_bullet.errors import UsageError
 from tactile_bullet.experiments import protocols as P
 from tactile_bullet.learn.coupled import coupled_record, j0_only

@@ -7,7 +7,7 @@ from collections import Counter
 
 from cli_helpers import run_error
 
-from tactile_bullet.datasets.sweeps import PRESETS, preset, preset_help
+from tactile_bullet.datasets.presets import PRESETS, preset, preset_help
 
 
 def test_small_presets_keep_their_recipe_on_tens_of_grasps():

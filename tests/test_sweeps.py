@@ -6,7 +6,8 @@ import math
 
 import pytest
 
-from tactile_bullet.datasets.sweeps import PRESETS, Sweep, preset
+from tactile_bullet.datasets.presets import PRESETS, preset
+from tactile_bullet.datasets.sweeps import Sweep
 from tactile_bullet.errors import UsageError
 
 

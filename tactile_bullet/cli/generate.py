@@ -62,7 +62,7 @@ def add_parser(sub) -> None:
     plain = parser.format_help
 
     def format_help() -> str:  # the presets' sizes are computed, only when help is asked
-        from ..datasets.sweeps import preset_help
+        from ..datasets.presets import preset_help
 
         return plain().rstrip("\n") + "\n\npresets: " + preset_help() + "\n"
 
@@ -72,8 +72,9 @@ def add_parser(sub) -> None:
 def run(args: argparse.Namespace) -> int:
 
     from ..datasets.generate import generate
+    from ..datasets.presets import preset
     from ..datasets.sweep_engines import with_engine
-    from ..datasets.sweeps import Sweep, preset
+    from ..datasets.sweeps import Sweep
 
     settings = engine_settings(args)
     engine = settings.get("engine", "bullet")

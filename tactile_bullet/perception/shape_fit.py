@@ -33,11 +33,14 @@ from ..errors import UsageError
 from ..objects.shapes import BUILTIN_SHAPES, THESIS_SHAPES, Shape, check_consistent
 from .grid_cache import grid_geometry
 from .shape_model import (
+    _XF,
     Calibration,
     _chain_features,
+    _reach,
     _sections,
     active_calibration,
     geometric_features,
+    nominal_centre,
 )
 
 OFFSET_X = (-0.02, 0.02)
@@ -165,6 +168,11 @@ class ShapeFit:
         }
 
 
+def _clip01(z: np.ndarray) -> np.ndarray:
+    """``np.clip(z, 0, 1)`` without its Python overhead (the same values, NaN kept)."""
+    return np.minimum(np.maximum(z, 0.0), 1.0)
+
+
 _POSE_LO = (OFFSET_X[0], OFFSET_Z[0], ROTATION[0])
 _POSE_HI = (OFFSET_X[1], OFFSET_Z[1], ROTATION[1])
 _GRID_CHUNK = 8192
@@ -190,6 +198,15 @@ class _Family:
         self.grid_geometry = grid_geometry(shape.name, self.grid, self._grid_geometry)
         self._cal: Calibration | None = None
         self._pred = self.grid_geometry[..., :2, :]
+        self._scaled: tuple | None = None
+        self._grid_prior = _prior_residual(self.grid) ** 2
+        # the validity of a grid point does not depend on its rotation, the grid's last and
+        # fastest axis: the rotation groups are then the columns of the costs reshaped
+        rots, cols = self.grid[:, -1], len(self.rotation_groups)
+        fastest = len(rots) % cols == 0 and np.array_equal(
+            rots.reshape(-1, cols), np.broadcast_to(np.unique(rots), (len(rots) // cols, cols))
+        )
+        self._rotation_columns = cols if fastest else 0
 
     def _grid_geometry(self, grid: np.ndarray) -> np.ndarray:
         return np.concatenate(
@@ -199,8 +216,30 @@ class _Family:
     def starts(self, cost: np.ndarray) -> np.ndarray:
         """Grid indices the search starts from: the best point of each grid rotation, the
         ``STARTS`` best of those (the best points overall tend to share one valley)."""
-        best = [group[np.argmin(cost[group])] for group in self.rotation_groups]
+        cols = self._rotation_columns
+        if cols:
+            best = list(np.argmin(cost.reshape(-1, cols), axis=0) * cols + np.arange(cols))
+        else:
+            best = [group[np.argmin(cost[group])] for group in self.rotation_groups]
         return np.array(sorted(best, key=lambda i: cost[i])[:STARTS])
+
+    def grid_costs(self, measured: np.ndarray, cal: Calibration) -> np.ndarray:
+        """:func:`_objective` over the whole grid in single precision, from predictions kept
+        divided by sigma and the loss scale: one subtraction, square and root per angle. Used
+        to pick the search's starts only (within ~1e-4 of a score; the starts' own costs are
+        then computed in double precision)."""
+        if self._scaled is None or self._scaled[0] is not cal:
+            scale = cal.sigma * cal.loss_scale
+            pred = self.grid_prediction(cal)
+            scaled = (pred / scale).reshape(len(pred), -1).astype(np.float32)
+            self._scaled = (cal, scaled, scale.ravel(), np.ones(scaled.shape[1], np.float32))
+        _, scaled, scale, ones = self._scaled
+        e = scaled - (measured.ravel() / scale).astype(np.float32)
+        np.square(e, out=e)
+        e += 1.0
+        np.sqrt(e, out=e)
+        c = cal.loss_scale
+        return 2.0 * c * c * (e @ ones - e.shape[1]) + self._grid_prior
 
     def grid_prediction(self, cal: Calibration) -> np.ndarray:
         """The grid's predicted angles under ``cal`` (kept for the last calibration used)."""
@@ -209,7 +248,7 @@ class _Family:
         return self._pred
 
     def values(self, z: np.ndarray) -> np.ndarray:
-        return self.lo + np.clip(z, 0.0, 1.0) * (self.hi - self.lo)
+        return self.lo + _clip01(z) * (self.hi - self.lo)
 
     def valid(self, z: np.ndarray) -> np.ndarray:
         v = self.values(z)
@@ -280,7 +319,7 @@ _ROTATION_SPAN = ROTATION[1] - ROTATION[0]
 def _prior_residual(z: np.ndarray) -> np.ndarray:
     """rotation / prior spread of normalised points (..., dims), rotation last: the prior's
     score is its square."""
-    beta = ROTATION[0] + np.clip(z[..., -1], 0.0, 1.0) * _ROTATION_SPAN
+    beta = ROTATION[0] + _clip01(z[..., -1]) * _ROTATION_SPAN
     return beta / math.radians(ROTATION_PRIOR_DEG)
 
 
@@ -294,8 +333,13 @@ def _accept(measured: np.ndarray, state: list, trials: list, cal: Calibration) -
     move each start to its best candidate where that improves on it; returns the starts that
     moved."""
     moved = set()
-    for (k, cand), pred in zip(trials, _predict(state, trials, cal), strict=True):
-        c = _objective(measured, pred, cand, cal)
+    preds = _predict(state, trials, cal)
+    rotations = np.concatenate([c[:, -1:] for _, c in trials])  # all the prior reads
+    costs = _objective(measured, np.concatenate(preds), rotations, cal)
+    at = 0
+    for k, cand in trials:
+        c = costs[at : at + len(cand)]
+        at += len(cand)
         j = int(np.argmin(c))
         if c[j] < state[k][2]:
             state[k][1], state[k][2] = cand[j], float(c[j])
@@ -309,11 +353,12 @@ def _fit(measured: np.ndarray, fams: Sequence[_Family], cal: Calibration) -> dic
     over all their candidates."""
     state = []
     for fam in fams:
-        cost = _objective(measured, fam.grid_prediction(cal), fam.grid, cal)
-        starts = fam.starts(cost)
+        starts = fam.starts(fam.grid_costs(measured, cal))
+        # the starts' costs exactly as the search computes every later point's
+        exact = _objective(measured, fam.grid_prediction(cal)[starts], fam.grid[starts], cal)
         dims = fam.grid.shape[1]
-        for best in starts:
-            state.append([fam, fam.grid[best], float(cost[best]), fam.spacing / 2.0, _moves(dims)])
+        for best, cost in zip(starts, exact, strict=True):
+            state.append([fam, fam.grid[best], float(cost), fam.spacing / 2.0, _moves(dims)])
     # only starts whose grid score is near the best one's are worth refining
     scores = [c + cal.penalty * len(f.names) for f, _, c, _, _ in state]
     near = [k for k, sc in enumerate(scores) if sc <= min(scores) + REFINE_MARGIN]
@@ -321,7 +366,7 @@ def _fit(measured: np.ndarray, fams: Sequence[_Family], cal: Calibration) -> dic
         parts = []
         for k in near:
             fam, z, _, step, moves = state[k]
-            cand = np.clip(z + moves * step, 0.0, 1.0)
+            cand = _clip01(z + moves * step)
             cand = cand[fam.valid(cand)]
             if cand.size:
                 parts.append((k, cand))
@@ -357,13 +402,55 @@ def _fit(measured: np.ndarray, fams: Sequence[_Family], cal: Calibration) -> dic
 
 def _predict(state, parts, cal: Calibration) -> list[np.ndarray]:
     """Predicted (n, 2, 4) angles of each (family index, candidates) in ``parts``, through one
-    pass of the finger chain over all of them."""
-    sections = [state[k][0].sections(cand) for k, cand in parts]
-    joined = [np.concatenate([sec[i] for sec in sections]) for i in range(4)]
-    geometry = _chain_features(*joined)
-    sizes = np.cumsum([len(cand) for _, cand in parts])[:-1]
-    return [cal.apply(g, state[k][0].shape.name)
-            for (k, _), g in zip(parts, np.split(geometry, sizes), strict=True)]  # fmt: skip
+    pass of the finger chain over all of them: the candidates of every family together, each
+    distinct (sizes, offset along O-O', rotation) once (:func:`_shared_sections`)."""
+    by_family: dict[_Family, list[int]] = {}
+    for i, (k, _) in enumerate(parts):
+        by_family.setdefault(state[k][0], []).append(i)
+    order = [i for idx in by_family.values() for i in idx]
+    groups = [(fam, np.concatenate([parts[i][1] for i in idx])) for fam, idx in by_family.items()]
+    geometry = _chain_features(*_shared_sections(groups))
+    sizes = np.cumsum([len(parts[i][1]) for i in order])[:-1]
+    out: list = [None] * len(parts)
+    for i, g in zip(order, np.split(geometry, sizes), strict=True):
+        out[i] = cal.apply(g, state[parts[i][0]][0].shape.name)
+    return out
+
+
+def _shared_sections(groups: Sequence[tuple[_Family, np.ndarray]]) -> tuple[np.ndarray, ...]:
+    """:func:`~.shape_model._sections` of every (family, points (n, dims)) in ``groups``,
+    concatenated: the sections of each distinct (sizes, offset along O-O', rotation) computed
+    once (the search's neighbours differ in the offset along the fingers in threes, and that
+    offset only shifts the section's centre), and the capsules' reach of all families in one
+    batch (each family's radius profile on its own rows)."""
+    values, inverses, firsts, y0s, spans = [], [], [], [], []
+    at = 0
+    for fam, z in groups:
+        key = np.delete(z, -2, axis=1)
+        _, first, inverse = np.unique(key, axis=0, return_index=True, return_inverse=True)
+        v = fam.values(z)
+        u = v[first]
+        params = {k: u[:, i] for i, k in enumerate(fam.names)}
+        y0, z0 = nominal_centre(fam.shape, params, u[:, -1])
+        values.append(v[:, -2:-1])
+        firsts.append(u)
+        inverses.append(inverse.ravel() + at)
+        y0s.append(y0)
+        spans.append((fam, at, at + len(first), params))
+        at += len(first)
+    pose = np.concatenate([u[:, -3:] for u in firsts])
+
+    def radius(u: np.ndarray) -> np.ndarray:
+        return np.concatenate([
+            fam.shape.radius(u[a:b], **{k: v[:, None, None, None] for k, v in params.items()})
+            for fam, a, b, params in spans
+        ])  # fmt: skip
+
+    reach, side, rise = _reach(radius, _XF - pose[:, 0:1], pose[:, 2:3])
+    inverse = np.concatenate(inverses)
+    dz = np.concatenate(values)
+    y0 = np.concatenate(y0s)[:, None]
+    return reach[inverse], side[inverse], y0[inverse], z0 + dz + rise[inverse]
 
 
 POLISH_STEPS = 4
@@ -375,41 +462,61 @@ _DAMPING = (1e-3, 1e-1, 1e1)
 
 def _polish(measured: np.ndarray, state: list, near: list[int], cal: Calibration) -> None:
     """Damped Gauss-Newton on the soft-L1 cost (reweighted least squares), the near families
-    in lockstep: per step one batch of finite-difference points, one of trial steps."""
+    in lockstep: per step one batch of finite-difference points, one of trial steps; the normal
+    equations of all the starts with as many coordinates solved together."""
     h = 1e-3
+    sigma = cal.sigma
     for _ in range(POLISH_STEPS):
         parts = []
         for k in near:
             z, dims = state[k][1], state[k][1].size
-            parts.append((k, np.clip(np.vstack([z, z + h * np.eye(dims)]), 0.0, 1.0)))
+            parts.append((k, _clip01(np.vstack([z, z + h * np.eye(dims)]))))
+        preds = _predict(state, parts, cal)
+        by_dims: dict[int, list[int]] = {}
+        for i, (_, pts) in enumerate(parts):
+            by_dims.setdefault(pts.shape[1], []).append(i)
         trials = []
-        for (k, pts), pred in zip(parts, _predict(state, parts, cal), strict=True):
-            e = ((measured - pred[0]) / cal.sigma).ravel()
-            jac = (-(pred[1:] - pred[0]) / cal.sigma).reshape(len(pts) - 1, -1).T
-            jac /= np.maximum(pts[1:] - pts[0], 1e-12).sum(axis=1)  # per unit of z
+        for dims, members in by_dims.items():
+            pred = np.stack([preds[i] for i in members])  # (S, dims + 1, 2, 4)
+            pts = np.stack([parts[i][1] for i in members])  # (S, dims + 1, dims)
+            n = len(members)
+            e = ((measured - pred[:, 0]) / sigma).reshape(n, -1)
+            jac = (-(pred[:, 1:] - pred[:, :1]) / sigma).reshape(n, dims, -1).transpose(0, 2, 1)
+            jac = jac / np.maximum(pts[:, 1:] - pts[:, :1], 1e-12).sum(axis=2)[:, None, :]
             w = 1.0 / np.sqrt(1.0 + (e / cal.loss_scale) ** 2)
             # the rotation prior as one more (unweighted) residual, linear in z
-            prior_row = np.zeros(jac.shape[1])
+            prior_row = np.zeros(dims)
             prior_row[-1] = _ROTATION_SPAN / math.radians(ROTATION_PRIOR_DEG)
-            e = np.append(e, _prior_residual(pts[0]))
-            jac = np.vstack([jac, prior_row])
-            w = np.append(w, 1.0)
-            a = jac.T @ (w[:, None] * jac)
-            g = jac.T @ (w * e)
-            steps = []
-            for lam in _DAMPING:
-                m = a + lam * (np.diag(np.diag(a)) + 1e-9 * np.eye(len(g)))
+            e = np.concatenate([e, _prior_residual(pts[:, 0])[:, None]], axis=1)
+            jac = np.concatenate([jac, np.broadcast_to(prior_row, (n, 1, dims))], axis=1)
+            w = np.concatenate([w, np.ones((n, 1))], axis=1)
+            jac_t = jac.transpose(0, 2, 1)
+            a = jac_t @ (w[:, :, None] * jac)
+            g = (jac_t @ (w * e)[:, :, None])[:, :, 0]
+            diag = a * np.eye(dims)  # np.diag(np.diag(a)) of each
+            steps = np.full((n, len(_DAMPING), dims), np.nan)
+            for d, lam in enumerate(_DAMPING):
+                m = a + lam * (diag + 1e-9 * np.eye(dims))
                 try:
-                    steps.append(-np.linalg.solve(m, g))
-                except np.linalg.LinAlgError:
+                    steps[:, d] = -np.linalg.solve(m, g[:, :, None])[:, :, 0]
+                except np.linalg.LinAlgError:  # one by one: a singular one is left out
+                    for j in range(n):
+                        try:
+                            steps[j, d] = -np.linalg.solve(m[j], g[j])
+                        except np.linalg.LinAlgError:
+                            continue
+            for j, i in enumerate(members):
+                ok = ~np.isnan(steps[j, :, 0])
+                if not ok.any():
                     continue
-            if steps:
-                cand = np.clip(pts[0] + np.array(steps), 0.0, 1.0)
+                k = parts[i][0]
+                cand = _clip01(pts[j, 0] + steps[j, ok])
                 cand = cand[state[k][0].valid(cand)]
                 if cand.size:
                     trials.append((k, cand))
         if not trials:
             return
+        trials.sort(key=lambda t: near.index(t[0]))  # the order the starts were searched in
         _accept(measured, state, trials, cal)
 
 

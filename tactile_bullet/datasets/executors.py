@@ -21,6 +21,7 @@ import contextlib
 import multiprocessing
 import os
 import signal
+import threading
 from collections.abc import Callable, Iterator, Sequence
 from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
 from concurrent.futures.process import BrokenProcessPool
@@ -49,17 +50,40 @@ def run_task(task: GraspTask) -> Outcome:
     return record.metadata(), record.arrays()
 
 
-def _context():
-    """forkserver where there is one: workers fork from a server that has already imported
-    the simulator (trimesh and pybullet take ~1 s to import), without inheriting this
-    process's state; spawn elsewhere."""
-    if "forkserver" not in multiprocessing.get_all_start_methods():
+def _context(engines: frozenset[str] = frozenset()):
+    """fork where the platform has it and this process runs no other Python thread: each
+    worker starts as a copy of this process, with the simulator, the engines and the plugins
+    it has already imported (:func:`_preload`), in milliseconds instead of the ~1.2-2 s a
+    fresh interpreter takes to import them (issue 30: that start was ``generate --workers 1``'s
+    whole overhead on MuJoCo). Otherwise forkserver, whose server imports the simulator once
+    without inheriting this process's state, or spawn where there is neither."""
+    methods = multiprocessing.get_all_start_methods()
+    if "fork" in methods and threading.active_count() == 1:
+        _preload(engines)
+        return multiprocessing.get_context("fork")
+    if "forkserver" not in methods:
         return multiprocessing.get_context("spawn")
     context = multiprocessing.get_context("forkserver")
     context.set_forkserver_preload(
         ["tactile_bullet.sim.grasp", "tactile_bullet.datasets.executors"]
     )
     return context
+
+
+def _preload(engines: frozenset[str]) -> None:
+    """Import, in this process, what every worker's first grasp would import: the simulator,
+    the plugins' registrations (a plugin may import trimesh and scipy: ~1.5 s) and the modules
+    of the ``engines`` the tasks name, so that forked workers share them."""
+    import importlib
+
+    from ..plugins import load_plugins
+    from ..sim import grasp  # noqa: F401
+
+    load_plugins()
+    for name in sorted(engines & {"bullet", "mujoco"}):
+        with contextlib.suppress(ImportError):  # the worker reports it, as it always did
+            importlib.import_module(f"tactile_bullet.sim.engines.{name}")
+            importlib.import_module("pybullet" if name == "bullet" else "mujoco")
 
 
 def _our_environment() -> dict[str, str | None]:
@@ -70,6 +94,11 @@ def _our_environment() -> dict[str, str | None]:
 
 
 def _set_environment(values: dict[str, str | None]) -> None:
+    """A worker's start: this run's TACTILE_BULLET_* variables, and the default signal
+    handlers (a forked worker would otherwise run the CLI's SIGTERM handler, not die of it)."""
+    with contextlib.suppress(ValueError):  # not the main thread: leave them
+        signal.signal(signal.SIGTERM, signal.SIG_DFL)
+        signal.signal(signal.SIGINT, signal.default_int_handler)
     for name, value in values.items():
         if value is None:
             os.environ.pop(name, None)
@@ -78,12 +107,12 @@ def _set_environment(values: dict[str, str | None]) -> None:
 
 
 @contextlib.contextmanager
-def _pool(workers: int) -> Iterator[ProcessPoolExecutor]:
+def _pool(workers: int, engines: frozenset[str] = frozenset()) -> Iterator[ProcessPoolExecutor]:
     """A pool whose workers are terminated, not waited for, when the block is left by an
     exception (an interrupt, or GeneratorExit when the consumer stops): their grasps would
     otherwise run to the end, and a killed parent would leave them running."""
     pool = ProcessPoolExecutor(
-        workers, mp_context=_context(), initializer=_set_environment,
+        workers, mp_context=_context(engines), initializer=_set_environment,
         initargs=(_our_environment(),),
     )  # fmt: skip
     try:
@@ -117,13 +146,14 @@ def run_local(
 ) -> Iterator[tuple[int, Outcome]]:
     """Run tasks on ``workers`` local processes, yielding results as they complete."""
     pending = list(tasks)
+    engines = _engines(pending)
     attempts: dict[int, int] = {}
     suspects: list[GraspTask] = []
     while pending or suspects:
         if suspects:  # isolate: one task per pool until each suspect is cleared or convicted
             task = suspects.pop(0)
             attempts[task.index] = attempts.get(task.index, 0) + 1
-            with _pool(1) as pool:
+            with _pool(1, engines) as pool:
                 try:
                     outcome = pool.submit(task_fn, task).result()
                 except BrokenProcessPool:
@@ -134,17 +164,23 @@ def run_local(
                     continue
             yield task.index, outcome
             continue
-        in_flight, pending = yield from _run_pool(pending, workers, task_fn)
+        in_flight, pending = yield from _run_pool(pending, workers, task_fn, engines)
         suspects.extend(in_flight)
 
 
-def _run_pool(tasks, workers, task_fn):
+def _engines(tasks) -> frozenset[str]:
+    """The engines ``tasks`` run on (what a forked worker should find imported)."""
+    names = {str(getattr(getattr(t, "controller", None), "engine", "")) for t in tasks}
+    return frozenset(names - {""})
+
+
+def _run_pool(tasks, workers, task_fn, engines=frozenset()):
     """Run ``tasks`` with at most ``workers`` in flight (so few are suspects when a worker
     dies). Returns (tasks in flight when a worker died, tasks not started yet)."""
     queue = list(tasks)
     in_flight: dict[Future, GraspTask] = {}
     try:
-        with _pool(workers) as pool:
+        with _pool(workers, engines) as pool:
             while queue or in_flight:
                 while queue and len(in_flight) < workers:
                     # submit before taking the task off the queue: a pool that broke since the

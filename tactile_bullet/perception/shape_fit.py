@@ -407,13 +407,14 @@ def _predict(state, parts, cal: Calibration) -> list[np.ndarray]:
     by_family: dict[_Family, list[int]] = {}
     for i, (k, _) in enumerate(parts):
         by_family.setdefault(state[k][0], []).append(i)
-    order = [i for idx in by_family.values() for i in idx]
     groups = [(fam, np.concatenate([parts[i][1] for i in idx])) for fam, idx in by_family.items()]
     geometry = _chain_features(*_shared_sections(groups))
-    sizes = np.cumsum([len(parts[i][1]) for i in order])[:-1]
-    out: list = [None] * len(parts)
-    for i, g in zip(order, np.split(geometry, sizes), strict=True):
-        out[i] = cal.apply(g, state[parts[i][0]][0].shape.name)
+    at, out = 0, [None] * len(parts)
+    for (fam, z), idx in zip(groups, by_family.values(), strict=True):
+        pred = cal.apply(geometry[at : at + len(z)], fam.shape.name)
+        at += len(z)
+        for i in idx:
+            out[i], pred = pred[: len(parts[i][1])], pred[len(parts[i][1]) :]
     return out
 
 
@@ -431,7 +432,11 @@ def _shared_sections(groups: Sequence[tuple[_Family, np.ndarray]]) -> tuple[np.n
         v = fam.values(z)
         u = v[first]
         params = {k: u[:, i] for i, k in enumerate(fam.names)}
-        y0, z0 = nominal_centre(fam.shape, params, u[:, -1])
+        # the nominal centre depends on the sizes and the rotation alone
+        sized = np.delete(key, -2, axis=1)[first]
+        _, once, again = np.unique(sized, axis=0, return_index=True, return_inverse=True)
+        y0, z0 = nominal_centre(fam.shape, {k: p[once] for k, p in params.items()}, u[once, -1])
+        y0 = y0[again.ravel()]
         values.append(v[:, -2:-1])
         firsts.append(u)
         inverses.append(inverse.ravel() + at)

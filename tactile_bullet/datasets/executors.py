@@ -50,7 +50,7 @@ def run_task(task: GraspTask) -> Outcome:
     return record.metadata(), record.arrays()
 
 
-def _context(engines: frozenset[str] = frozenset()):
+def _context(engines: frozenset[str] = frozenset(), meshes: bool = False):
     """fork where the platform has it and this process runs no other Python thread: each
     worker starts as a copy of this process, with the simulator, the engines and the plugins
     it has already imported (:func:`_preload`), in milliseconds instead of the ~1.2-2 s a
@@ -59,7 +59,7 @@ def _context(engines: frozenset[str] = frozenset()):
     without inheriting this process's state, or spawn where there is neither."""
     methods = multiprocessing.get_all_start_methods()
     if "fork" in methods and threading.active_count() == 1:
-        _preload(engines)
+        _preload(engines, meshes)
         return multiprocessing.get_context("fork")
     if "forkserver" not in methods:
         return multiprocessing.get_context("spawn")
@@ -70,10 +70,12 @@ def _context(engines: frozenset[str] = frozenset()):
     return context
 
 
-def _preload(engines: frozenset[str]) -> None:
+def _preload(engines: frozenset[str], meshes: bool) -> None:
     """Import, in this process, what every worker's first grasp would import: the simulator,
-    the plugins' registrations (a plugin may import trimesh and scipy: ~1.5 s) and the modules
-    of the ``engines`` the tasks name, so that forked workers share them."""
+    the plugins' registrations (a plugin may import trimesh and scipy: ~1.5 s), the modules
+    of the ``engines`` the tasks name, and trimesh where a task's object is built as a mesh
+    (``meshes``: the first MuJoCo cone of a process took 0.8-2.2 s, all of it importing
+    trimesh), so that forked workers share them."""
     import importlib
 
     from ..plugins import load_plugins
@@ -84,6 +86,9 @@ def _preload(engines: frozenset[str]) -> None:
         with contextlib.suppress(ImportError):  # the worker reports it, as it always did
             importlib.import_module(f"tactile_bullet.sim.engines.{name}")
             importlib.import_module("pybullet" if name == "bullet" else "mujoco")
+    if meshes:
+        with contextlib.suppress(ImportError):
+            importlib.import_module("trimesh")
 
 
 def _our_environment() -> dict[str, str | None]:
@@ -107,12 +112,14 @@ def _set_environment(values: dict[str, str | None]) -> None:
 
 
 @contextlib.contextmanager
-def _pool(workers: int, engines: frozenset[str] = frozenset()) -> Iterator[ProcessPoolExecutor]:
+def _pool(
+    workers: int, engines: frozenset[str] = frozenset(), meshes: bool = False
+) -> Iterator[ProcessPoolExecutor]:
     """A pool whose workers are terminated, not waited for, when the block is left by an
     exception (an interrupt, or GeneratorExit when the consumer stops): their grasps would
     otherwise run to the end, and a killed parent would leave them running."""
     pool = ProcessPoolExecutor(
-        workers, mp_context=_context(engines), initializer=_set_environment,
+        workers, mp_context=_context(engines, meshes), initializer=_set_environment,
         initargs=(_our_environment(),),
     )  # fmt: skip
     try:
@@ -146,14 +153,14 @@ def run_local(
 ) -> Iterator[tuple[int, Outcome]]:
     """Run tasks on ``workers`` local processes, yielding results as they complete."""
     pending = list(tasks)
-    engines = _engines(pending)
+    engines, meshes = _engines(pending), _meshes(pending)
     attempts: dict[int, int] = {}
     suspects: list[GraspTask] = []
     while pending or suspects:
         if suspects:  # isolate: one task per pool until each suspect is cleared or convicted
             task = suspects.pop(0)
             attempts[task.index] = attempts.get(task.index, 0) + 1
-            with _pool(1, engines) as pool:
+            with _pool(1, engines, meshes) as pool:
                 try:
                     outcome = pool.submit(task_fn, task).result()
                 except BrokenProcessPool:
@@ -164,7 +171,7 @@ def run_local(
                     continue
             yield task.index, outcome
             continue
-        in_flight, pending = yield from _run_pool(pending, workers, task_fn, engines)
+        in_flight, pending = yield from _run_pool(pending, workers, task_fn, engines, meshes)
         suspects.extend(in_flight)
 
 
@@ -174,13 +181,29 @@ def _engines(tasks) -> frozenset[str]:
     return frozenset(names - {""})
 
 
-def _run_pool(tasks, workers, task_fn, engines=frozenset()):
+_PRIMITIVE = frozenset({"sphere", "cylinder", "torus", "hyperboloid"})
+"""Built-in shapes whose objects the mujoco engine builds without trimesh (bullet builds every
+object's mesh with it)."""
+
+
+def _meshes(tasks) -> bool:
+    """Whether any of ``tasks`` builds its object with trimesh."""
+    for t in tasks:
+        engine = getattr(getattr(t, "controller", None), "engine", "mujoco")
+        if engine != "mujoco" or getattr(t, "mesh", None) is not None:
+            return True
+        if getattr(t, "shape", "sphere") not in _PRIMITIVE:
+            return True
+    return False
+
+
+def _run_pool(tasks, workers, task_fn, engines=frozenset(), meshes=False):
     """Run ``tasks`` with at most ``workers`` in flight (so few are suspects when a worker
     dies). Returns (tasks in flight when a worker died, tasks not started yet)."""
     queue = list(tasks)
     in_flight: dict[Future, GraspTask] = {}
     try:
-        with _pool(workers, engines) as pool:
+        with _pool(workers, engines, meshes) as pool:
             while queue or in_flight:
                 while queue and len(in_flight) < workers:
                     # submit before taking the task off the queue: a pool that broke since the

@@ -85,7 +85,12 @@ def _preload(engines: frozenset[str], meshes: bool) -> None:
     for name in sorted(engines & {"bullet", "mujoco"}):
         with contextlib.suppress(ImportError):  # the worker reports it, as it always did
             importlib.import_module(f"tactile_bullet.sim.engines.{name}")
-            importlib.import_module("pybullet" if name == "bullet" else "mujoco")
+            if name == "bullet":
+                from ..sim.scene import import_pybullet
+
+                import_pybullet()  # without its banner
+            else:
+                importlib.import_module("mujoco")
     if meshes:
         with contextlib.suppress(ImportError):
             importlib.import_module("trimesh")
@@ -98,9 +103,19 @@ def _our_environment() -> dict[str, str | None]:
     return {n: os.environ.get(n) for n in names}
 
 
-def _set_environment(values: dict[str, str | None]) -> None:
-    """A worker's start: this run's TACTILE_BULLET_* variables, and the default signal
-    handlers (a forked worker would otherwise run the CLI's SIGTERM handler, not die of it)."""
+PARENT_ONLY_FDS: set[int] = set()
+"""File descriptors a forked worker closes at once: the dataset's writer lock (``generate``
+adds it while it holds it). A flock is dropped when the last descriptor of its open file
+closes, so a worker's inherited copy would keep a killed run's lock and block its --resume."""
+
+
+def _set_environment(values: dict[str, str | None], close: tuple[int, ...] = ()) -> None:
+    """A worker's start: this run's TACTILE_BULLET_* variables, the default signal handlers (a
+    forked worker would otherwise run the CLI's SIGTERM handler, not die of it) and, forked,
+    the parent's descriptors in ``close`` closed."""
+    for fd in close:
+        with contextlib.suppress(OSError):
+            os.close(fd)
     with contextlib.suppress(ValueError):  # not the main thread: leave them
         signal.signal(signal.SIGTERM, signal.SIG_DFL)
         signal.signal(signal.SIGINT, signal.default_int_handler)
@@ -118,9 +133,11 @@ def _pool(
     """A pool whose workers are terminated, not waited for, when the block is left by an
     exception (an interrupt, or GeneratorExit when the consumer stops): their grasps would
     otherwise run to the end, and a killed parent would leave them running."""
+    context = _context(engines, meshes)
+    close = tuple(sorted(PARENT_ONLY_FDS)) if context.get_start_method() == "fork" else ()
     pool = ProcessPoolExecutor(
-        workers, mp_context=_context(engines, meshes), initializer=_set_environment,
-        initargs=(_our_environment(),),
+        workers, mp_context=context, initializer=_set_environment,
+        initargs=(_our_environment(), close),
     )  # fmt: skip
     try:
         yield pool

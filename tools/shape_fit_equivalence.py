@@ -111,7 +111,7 @@ def dataset_grasps(path: str, limit: int | None) -> list[tuple[str, np.ndarray]]
 
 def compare(ref, inputs, label: str) -> dict:
     same = 0
-    best_diff = all_diff = 0.0
+    best_diff = all_diff = fit_diff = 0.0
     right_ref = right_new = 0
     t_ref, t_new = [], []
     worst = None
@@ -132,12 +132,18 @@ def compare(ref, inputs, label: str) -> dict:
         if d > best_diff:
             best_diff, worst = d, (truth, a.shape, b.shape, a.best.score, b.best.score)
         all_diff = max(all_diff, max(abs(a.fits[n].score - b.fits[n].score) for n in a.fits))
+        if a.shape == b.shape:  # the named family's sizes, pose and residual
+            x, y = a.best, b.best
+            got = [*x.params.values(), *x.offset, x.rotation_deg / 1e3, x.residual]
+            new = [*y.params.values(), *y.offset, y.rotation_deg / 1e3, y.residual]
+            fit_diff = max(fit_diff, float(np.max(np.abs(np.subtract(got, new)))))
     n = len(inputs)
     doc = {
         "grasps": n,
         "same_family_pct": 100.0 * same / n,
         "max_named_score_diff": best_diff,
         "max_any_score_diff": all_diff,
+        "max_named_fit_diff": fit_diff,
         "accuracy_ref_pct": 100.0 * right_ref / n,
         "accuracy_new_pct": 100.0 * right_new / n,
         "median_ms_ref": 1e3 * float(np.median(t_ref)),
@@ -149,7 +155,8 @@ def compare(ref, inputs, label: str) -> dict:
     doc["speedup_mean"] = doc["mean_ms_ref"] / doc["mean_ms_new"]
     print(
         f"{label}: {n} grasps; same family {doc['same_family_pct']:.1f}%; named family's score "
-        f"within {best_diff:.3g} (any family's within {all_diff:.3g}); accuracy against the "
+        f"within {best_diff:.3g} (any family's within {all_diff:.3g}; its sizes, offsets, "
+        f"rotation/1000 and residual within {fit_diff:.3g}); accuracy against the "
         f"truth {doc['accuracy_ref_pct']:.1f}% -> {doc['accuracy_new_pct']:.1f}%; per grasp "
         f"median {doc['median_ms_ref']:.1f} -> {doc['median_ms_new']:.2f} ms "
         f"({doc['speedup_median']:.1f}x), mean {doc['mean_ms_ref']:.1f} -> "

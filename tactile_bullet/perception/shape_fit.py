@@ -328,12 +328,15 @@ def _objective(measured: np.ndarray, predicted: np.ndarray, z: np.ndarray, cal) 
     return _costs(measured, predicted, cal) + _prior_residual(z) ** 2
 
 
-def _accept(measured: np.ndarray, state: list, trials: list, cal: Calibration) -> set[int]:
-    """Score each (start index, candidates) of ``trials`` in one pass of the finger chain and
-    move each start to its best candidate where that improves on it; returns the starts that
-    moved."""
-    moved = set()
-    preds = _predict(state, trials, cal)
+def _accept(
+    measured: np.ndarray, state: list, trials: list, cal: Calibration, preds=None
+) -> dict[int, int]:
+    """Score each (start index, candidates) of ``trials`` in one pass of the finger chain (or
+    from their predictions ``preds``, given) and move each start to its best candidate where
+    that improves on it; returns {start: the candidate it moved to}."""
+    moved = {}
+    preds = _predict(state, trials, cal) if preds is None else preds
+    pred_of = {k: p for (k, _), p in zip(trials, preds, strict=True)}
     rotations = np.concatenate([c[:, -1:] for _, c in trials])  # all the prior reads
     costs = _objective(measured, np.concatenate(preds), rotations, cal)
     at = 0
@@ -342,8 +345,8 @@ def _accept(measured: np.ndarray, state: list, trials: list, cal: Calibration) -
         at += len(cand)
         j = int(np.argmin(c))
         if c[j] < state[k][2]:
-            state[k][1], state[k][2] = cand[j], float(c[j])
-            moved.add(k)
+            state[k][1], state[k][2], state[k][5] = cand[j], float(c[j]), pred_of[k][j]
+            moved[k] = j
     return moved
 
 
@@ -355,17 +358,18 @@ def _fit(measured: np.ndarray, fams: Sequence[_Family], cal: Calibration) -> dic
     for fam in fams:
         starts = fam.starts(fam.grid_costs(measured, cal))
         # the starts' costs exactly as the search computes every later point's
-        exact = _objective(measured, fam.grid_prediction(cal)[starts], fam.grid[starts], cal)
+        pred = fam.grid_prediction(cal)[starts]
+        exact = _objective(measured, pred, fam.grid[starts], cal)
         dims = fam.grid.shape[1]
-        for best, cost in zip(starts, exact, strict=True):
-            state.append([fam, fam.grid[best], float(cost), fam.spacing / 2.0, _moves(dims)])
+        for best, cost, p in zip(starts, exact, pred, strict=True):
+            state.append([fam, fam.grid[best], float(cost), fam.spacing / 2.0, _moves(dims), p])
     # only starts whose grid score is near the best one's are worth refining
-    scores = [c + cal.penalty * len(f.names) for f, _, c, _, _ in state]
+    scores = [e[2] + cal.penalty * len(e[0].names) for e in state]
     near = [k for k, sc in enumerate(scores) if sc <= min(scores) + REFINE_MARGIN]
     for _ in range(REFINE_ROUNDS):
         parts = []
         for k in near:
-            fam, z, _, step, moves = state[k]
+            fam, z, _, step, moves, _ = state[k]
             cand = _clip01(z + moves * step)
             cand = cand[fam.valid(cand)]
             if cand.size:
@@ -382,12 +386,9 @@ def _fit(measured: np.ndarray, fams: Sequence[_Family], cal: Calibration) -> dic
         name = entry[0].shape.name
         if name not in best_of or entry[2] < best_of[name][2]:
             best_of[name] = entry
-    kept = list(best_of.values())
     out = {}
-    finals = _predict(kept, [(k, s[1][None]) for k, s in enumerate(kept)], cal)
-    for (fam, z, cost, _, _), final in zip(kept, finals, strict=True):
+    for fam, z, cost, _, _, predicted in best_of.values():  # each point's prediction as scored
         values = fam.values(z[None])[0]
-        predicted = final[0]
         out[fam.shape.name] = FamilyFit(
             shape=fam.shape.name,
             params={k: float(values[i]) for i, k in enumerate(fam.names)},
@@ -465,64 +466,84 @@ curved valleys (a larger object further out) that fixed-ratio steps crawl along.
 _DAMPING = (1e-3, 1e-1, 1e1)
 
 
+def _fd_points(z: np.ndarray, h: float) -> np.ndarray:
+    """A point and its finite-difference neighbours, one step ``h`` along each coordinate."""
+    return _clip01(np.vstack([z, z + h * np.eye(z.size)]))
+
+
 def _polish(measured: np.ndarray, state: list, near: list[int], cal: Calibration) -> None:
     """Damped Gauss-Newton on the soft-L1 cost (reweighted least squares), the near families
-    in lockstep: per step one batch of finite-difference points, one of trial steps; the normal
-    equations of all the starts with as many coordinates solved together."""
+    in lockstep; the normal equations of all the starts with as many coordinates solved
+    together. Each step's trial points are evaluated with their own finite-difference
+    neighbours, so the next step's Jacobian, around whichever trial a start moved to, is at
+    hand: one pass of the finger chain per step."""
     h = 1e-3
-    sigma = cal.sigma
-    for _ in range(POLISH_STEPS):
-        parts = []
-        for k in near:
-            z, dims = state[k][1], state[k][1].size
-            parts.append((k, _clip01(np.vstack([z, z + h * np.eye(dims)]))))
-        preds = _predict(state, parts, cal)
-        by_dims: dict[int, list[int]] = {}
-        for i, (_, pts) in enumerate(parts):
-            by_dims.setdefault(pts.shape[1], []).append(i)
-        trials = []
-        for dims, members in by_dims.items():
-            pred = np.stack([preds[i] for i in members])  # (S, dims + 1, 2, 4)
-            pts = np.stack([parts[i][1] for i in members])  # (S, dims + 1, dims)
-            n = len(members)
-            e = ((measured - pred[:, 0]) / sigma).reshape(n, -1)
-            jac = (-(pred[:, 1:] - pred[:, :1]) / sigma).reshape(n, dims, -1).transpose(0, 2, 1)
-            jac = jac / np.maximum(pts[:, 1:] - pts[:, :1], 1e-12).sum(axis=2)[:, None, :]
-            w = 1.0 / np.sqrt(1.0 + (e / cal.loss_scale) ** 2)
-            # the rotation prior as one more (unweighted) residual, linear in z
-            prior_row = np.zeros(dims)
-            prior_row[-1] = _ROTATION_SPAN / math.radians(ROTATION_PRIOR_DEG)
-            e = np.concatenate([e, _prior_residual(pts[:, 0])[:, None]], axis=1)
-            jac = np.concatenate([jac, np.broadcast_to(prior_row, (n, 1, dims))], axis=1)
-            w = np.concatenate([w, np.ones((n, 1))], axis=1)
-            jac_t = jac.transpose(0, 2, 1)
-            a = jac_t @ (w[:, :, None] * jac)
-            g = (jac_t @ (w * e)[:, :, None])[:, :, 0]
-            diag = a * np.eye(dims)  # np.diag(np.diag(a)) of each
-            steps = np.full((n, len(_DAMPING), dims), np.nan)
-            for d, lam in enumerate(_DAMPING):
-                m = a + lam * (diag + 1e-9 * np.eye(dims))
-                try:
-                    steps[:, d] = -np.linalg.solve(m, g[:, :, None])[:, :, 0]
-                except np.linalg.LinAlgError:  # one by one: a singular one is left out
-                    for j in range(n):
-                        try:
-                            steps[j, d] = -np.linalg.solve(m[j], g[j])
-                        except np.linalg.LinAlgError:
-                            continue
-            for j, i in enumerate(members):
-                ok = ~np.isnan(steps[j, :, 0])
-                if not ok.any():
-                    continue
-                k = parts[i][0]
-                cand = _clip01(pts[j, 0] + steps[j, ok])
-                cand = cand[state[k][0].valid(cand)]
-                if cand.size:
-                    trials.append((k, cand))
+    parts = [(k, _fd_points(state[k][1], h)) for k in near]
+    fd = dict(zip(near, _predict(state, parts, cal), strict=True))
+    for step in range(POLISH_STEPS):
+        trials = _polish_trials(measured, state, near, fd, h, cal)
         if not trials:
             return
-        trials.sort(key=lambda t: near.index(t[0]))  # the order the starts were searched in
-        _accept(measured, state, trials, cal)
+        if step == POLISH_STEPS - 1:  # no next Jacobian: the trials alone
+            _accept(measured, state, trials, cal)
+            return
+        blocks = [(k, np.concatenate([_fd_points(c, h) for c in cand])) for k, cand in trials]
+        block_preds = _predict(state, blocks, cal)
+        preds = [p[:: len(c[0]) + 1] for p, (_, c) in zip(block_preds, trials, strict=True)]
+        moved = _accept(measured, state, trials, cal, preds)
+        for (k, cand), p in zip(trials, block_preds, strict=True):
+            if k in moved:
+                n = len(cand[0]) + 1
+                fd[k] = p[moved[k] * n : (moved[k] + 1) * n]
+
+
+def _polish_trials(measured, state, near, fd, h, cal) -> list:
+    """One damped Gauss-Newton step of each near start from its point's finite differences
+    ``fd`` (predictions at the point and at +h along each coordinate): (start, trial points)."""
+    sigma = cal.sigma
+    by_dims: dict[int, list[int]] = {}
+    for k in near:
+        by_dims.setdefault(state[k][1].size, []).append(k)
+    trials = []
+    for dims, members in by_dims.items():
+        pred = np.stack([fd[k] for k in members])  # (S, dims + 1, 2, 4)
+        pts = np.stack([_fd_points(state[k][1], h) for k in members])  # (S, dims + 1, dims)
+        n = len(members)
+        e = ((measured - pred[:, 0]) / sigma).reshape(n, -1)
+        jac = (-(pred[:, 1:] - pred[:, :1]) / sigma).reshape(n, dims, -1).transpose(0, 2, 1)
+        jac = jac / np.maximum(pts[:, 1:] - pts[:, :1], 1e-12).sum(axis=2)[:, None, :]
+        w = 1.0 / np.sqrt(1.0 + (e / cal.loss_scale) ** 2)
+        # the rotation prior as one more (unweighted) residual, linear in z
+        prior_row = np.zeros(dims)
+        prior_row[-1] = _ROTATION_SPAN / math.radians(ROTATION_PRIOR_DEG)
+        e = np.concatenate([e, _prior_residual(pts[:, 0])[:, None]], axis=1)
+        jac = np.concatenate([jac, np.broadcast_to(prior_row, (n, 1, dims))], axis=1)
+        w = np.concatenate([w, np.ones((n, 1))], axis=1)
+        jac_t = jac.transpose(0, 2, 1)
+        a = jac_t @ (w[:, :, None] * jac)
+        g = (jac_t @ (w * e)[:, :, None])[:, :, 0]
+        diag = a * np.eye(dims)  # np.diag(np.diag(a)) of each
+        steps = np.full((n, len(_DAMPING), dims), np.nan)
+        for d, lam in enumerate(_DAMPING):
+            m = a + lam * (diag + 1e-9 * np.eye(dims))
+            try:
+                steps[:, d] = -np.linalg.solve(m, g[:, :, None])[:, :, 0]
+            except np.linalg.LinAlgError:  # one by one: a singular one is left out
+                for j in range(n):
+                    try:
+                        steps[j, d] = -np.linalg.solve(m[j], g[j])
+                    except np.linalg.LinAlgError:
+                        continue
+        for j, k in enumerate(members):
+            ok = ~np.isnan(steps[j, :, 0])
+            if not ok.any():
+                continue
+            cand = _clip01(pts[j, 0] + steps[j, ok])
+            cand = cand[state[k][0].valid(cand)]
+            if cand.size:
+                trials.append((k, cand))
+    trials.sort(key=lambda t: near.index(t[0]))  # the order the starts were searched in
+    return trials
 
 
 def fit_shape(

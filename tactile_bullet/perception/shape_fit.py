@@ -473,8 +473,7 @@ def _fd_points(z: np.ndarray, h: float) -> np.ndarray:
 
 def _polish(measured: np.ndarray, state: list, near: list[int], cal: Calibration) -> None:
     """Damped Gauss-Newton on the soft-L1 cost (reweighted least squares), the near families
-    in lockstep; the normal equations of all the starts with as many coordinates solved
-    together. Each step's trial points are evaluated with their own finite-difference
+    in lockstep. Each step's trial points are evaluated with their own finite-difference
     neighbours, so the next step's Jacobian, around whichever trial a start moved to, is at
     hand: one pass of the finger chain per step."""
     h = 1e-3
@@ -519,21 +518,17 @@ def _polish_trials(measured, state, near, fd, h, cal) -> list:
         e = np.concatenate([e, _prior_residual(pts[:, 0])[:, None]], axis=1)
         jac = np.concatenate([jac, np.broadcast_to(prior_row, (n, 1, dims))], axis=1)
         w = np.concatenate([w, np.ones((n, 1))], axis=1)
-        jac_t = jac.transpose(0, 2, 1)
-        a = jac_t @ (w[:, :, None] * jac)
-        g = (jac_t @ (w * e)[:, :, None])[:, :, 0]
-        diag = a * np.eye(dims)  # np.diag(np.diag(a)) of each
         steps = np.full((n, len(_DAMPING), dims), np.nan)
-        for d, lam in enumerate(_DAMPING):
-            m = a + lam * (diag + 1e-9 * np.eye(dims))
-            try:
-                steps[:, d] = -np.linalg.solve(m, g[:, :, None])[:, :, 0]
-            except np.linalg.LinAlgError:  # one by one: a singular one is left out
-                for j in range(n):
-                    try:
-                        steps[j, d] = -np.linalg.solve(m[j], g[j])
-                    except np.linalg.LinAlgError:
-                        continue
+        for j in range(n):  # each start's normal equations as one 2-D product, one solve each
+            jj, wj = jac[j], w[j]
+            a = jj.T @ (wj[:, None] * jj)
+            g = jj.T @ (wj * e[j])
+            for d, lam in enumerate(_DAMPING):
+                m = a + lam * (np.diag(np.diag(a)) + 1e-9 * np.eye(len(g)))
+                try:
+                    steps[j, d] = -np.linalg.solve(m, g)
+                except np.linalg.LinAlgError:  # a singular one is left out
+                    continue
         for j, k in enumerate(members):
             ok = ~np.isnan(steps[j, :, 0])
             if not ok.any():

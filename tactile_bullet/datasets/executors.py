@@ -33,6 +33,12 @@ Outcome = tuple[dict, dict] | str
 CRASH_ENV = "TACTILE_BULLET_TEST_CRASH_TASK"
 """Test hook: a worker running the task with this index kills itself with SIGSEGV."""
 
+PREFETCH = 1
+"""Tasks queued beyond one per worker, so a worker that finishes a grasp starts the next at
+once instead of waiting for this process to take its result and hand it another (a MuJoCo
+grasp is ~45 ms: the round trip was a tenth of it). Each is one more suspect to re-run alone
+when a worker dies."""
+
 MAX_ATTEMPTS = 2
 """A task whose worker died is retried once, then recorded as failed."""
 
@@ -215,14 +221,14 @@ def _meshes(tasks) -> bool:
 
 
 def _run_pool(tasks, workers, task_fn, engines=frozenset(), meshes=False):
-    """Run ``tasks`` with at most ``workers`` in flight (so few are suspects when a worker
-    dies). Returns (tasks in flight when a worker died, tasks not started yet)."""
+    """Run ``tasks`` with at most ``workers + PREFETCH`` in flight (so few are suspects when a
+    worker dies). Returns (tasks in flight when a worker died, tasks not started yet)."""
     queue = list(tasks)
     in_flight: dict[Future, GraspTask] = {}
     try:
         with _pool(workers, engines, meshes) as pool:
             while queue or in_flight:
-                while queue and len(in_flight) < workers:
+                while queue and len(in_flight) < workers + PREFETCH:
                     # submit before taking the task off the queue: a pool that broke since the
                     # last wait raises here, and the task must stay queued, not vanish
                     future = pool.submit(task_fn, queue[0])

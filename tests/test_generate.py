@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import os
 import socket
 import subprocess
 import sys
@@ -10,6 +11,7 @@ import sys
 import pytest
 from synthetic import SMALL_SWEEP as SMALL
 
+from tactile_bullet.datasets import executors
 from tactile_bullet.datasets.dataset import open_dataset
 from tactile_bullet.datasets.executors import CRASH_ENV
 from tactile_bullet.datasets.generate import generate
@@ -134,3 +136,26 @@ def test_cli_malformed_toml_names_the_file(tmp_path):
     result = cli("generate", "--config", str(bad), "--out", str(tmp_path / "ds"))
     assert result.returncode == 2 and "bad.toml is not valid TOML" in result.stderr
     assert not (tmp_path / "ds").exists()
+
+
+def _file_of(fd: int) -> tuple[int, int] | None:
+    """(device, inode) of what descriptor ``fd`` of this process holds, None if it is closed."""
+    try:
+        st = os.fstat(fd)
+    except OSError:
+        return None
+    return st.st_dev, st.st_ino
+
+
+def test_workers_do_not_keep_the_writer_lock_open(tmp_path):
+    """Forked workers close their copy of the dataset's lock (a worker outliving a killed run
+    would otherwise hold it and refuse the --resume); preloading makes them start fast."""
+    with open(tmp_path / "lock", "a") as handle:
+        executors.PARENT_ONLY_FDS.add(handle.fileno())
+        try:
+            lock = os.fstat(handle.fileno())
+            with executors._pool(1, frozenset({"bullet"})) as pool:
+                held = pool.submit(_file_of, handle.fileno()).result()
+            assert held != (lock.st_dev, lock.st_ino)
+        finally:
+            executors.PARENT_ONLY_FDS.discard(handle.fileno())

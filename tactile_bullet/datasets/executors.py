@@ -21,6 +21,7 @@ import contextlib
 import multiprocessing
 import os
 import signal
+import threading
 from collections.abc import Callable, Iterator, Sequence
 from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
 from concurrent.futures.process import BrokenProcessPool
@@ -31,6 +32,12 @@ from .sweeps import GraspTask
 Outcome = tuple[dict, dict] | str
 CRASH_ENV = "TACTILE_BULLET_TEST_CRASH_TASK"
 """Test hook: a worker running the task with this index kills itself with SIGSEGV."""
+
+PREFETCH = 1
+"""Tasks queued beyond one per worker, so a worker that finishes a grasp starts the next at
+once instead of waiting for this process to take its result and hand it another (a MuJoCo
+grasp is ~45 ms: the round trip was a tenth of it). Each is one more suspect to re-run alone
+when a worker dies."""
 
 MAX_ATTEMPTS = 2
 """A task whose worker died is retried once, then recorded as failed."""
@@ -49,17 +56,50 @@ def run_task(task: GraspTask) -> Outcome:
     return record.metadata(), record.arrays()
 
 
-def _context():
-    """forkserver where there is one: workers fork from a server that has already imported
-    the simulator (trimesh and pybullet take ~1 s to import), without inheriting this
-    process's state; spawn elsewhere."""
-    if "forkserver" not in multiprocessing.get_all_start_methods():
+def _context(engines: frozenset[str] = frozenset(), meshes: bool = False):
+    """fork where the platform has it and this process runs no other Python thread: each
+    worker starts as a copy of this process, with the simulator, the engines and the plugins
+    it has already imported (:func:`_preload`), in milliseconds instead of the ~1.2-2 s a
+    fresh interpreter takes to import them (issue 30: that start was ``generate --workers 1``'s
+    whole overhead on MuJoCo). Otherwise forkserver, whose server imports the simulator once
+    without inheriting this process's state, or spawn where there is neither."""
+    methods = multiprocessing.get_all_start_methods()
+    if "fork" in methods and threading.active_count() == 1:
+        _preload(engines, meshes)
+        return multiprocessing.get_context("fork")
+    if "forkserver" not in methods:
         return multiprocessing.get_context("spawn")
     context = multiprocessing.get_context("forkserver")
     context.set_forkserver_preload(
         ["tactile_bullet.sim.grasp", "tactile_bullet.datasets.executors"]
     )
     return context
+
+
+def _preload(engines: frozenset[str], meshes: bool) -> None:
+    """Import, in this process, what every worker's first grasp would import: the simulator,
+    the plugins' registrations (a plugin may import trimesh and scipy: ~1.5 s), the modules
+    of the ``engines`` the tasks name, and trimesh where a task's object is built as a mesh
+    (``meshes``: the first MuJoCo cone of a process took 0.8-2.2 s, all of it importing
+    trimesh), so that forked workers share them."""
+    import importlib
+
+    from ..plugins import load_plugins
+    from ..sim import grasp  # noqa: F401
+
+    load_plugins()
+    for name in sorted(engines & {"bullet", "mujoco"}):
+        with contextlib.suppress(ImportError):  # the worker reports it, as it always did
+            importlib.import_module(f"tactile_bullet.sim.engines.{name}")
+            if name == "bullet":
+                from ..sim.scene import import_pybullet
+
+                import_pybullet()  # without its banner
+            else:
+                importlib.import_module("mujoco")
+    if meshes:
+        with contextlib.suppress(ImportError):
+            importlib.import_module("trimesh")
 
 
 def _our_environment() -> dict[str, str | None]:
@@ -69,7 +109,22 @@ def _our_environment() -> dict[str, str | None]:
     return {n: os.environ.get(n) for n in names}
 
 
-def _set_environment(values: dict[str, str | None]) -> None:
+PARENT_ONLY_FDS: set[int] = set()
+"""File descriptors a forked worker closes at once: the dataset's writer lock (``generate``
+adds it while it holds it). A flock is dropped when the last descriptor of its open file
+closes, so a worker's inherited copy would keep a killed run's lock and block its --resume."""
+
+
+def _set_environment(values: dict[str, str | None], close: tuple[int, ...] = ()) -> None:
+    """A worker's start: this run's TACTILE_BULLET_* variables, the default signal handlers (a
+    forked worker would otherwise run the CLI's SIGTERM handler, not die of it) and, forked,
+    the parent's descriptors in ``close`` closed."""
+    for fd in close:
+        with contextlib.suppress(OSError):
+            os.close(fd)
+    with contextlib.suppress(ValueError):  # not the main thread: leave them
+        signal.signal(signal.SIGTERM, signal.SIG_DFL)
+        signal.signal(signal.SIGINT, signal.default_int_handler)
     for name, value in values.items():
         if value is None:
             os.environ.pop(name, None)
@@ -78,13 +133,17 @@ def _set_environment(values: dict[str, str | None]) -> None:
 
 
 @contextlib.contextmanager
-def _pool(workers: int) -> Iterator[ProcessPoolExecutor]:
+def _pool(
+    workers: int, engines: frozenset[str] = frozenset(), meshes: bool = False
+) -> Iterator[ProcessPoolExecutor]:
     """A pool whose workers are terminated, not waited for, when the block is left by an
     exception (an interrupt, or GeneratorExit when the consumer stops): their grasps would
     otherwise run to the end, and a killed parent would leave them running."""
+    context = _context(engines, meshes)
+    close = tuple(sorted(PARENT_ONLY_FDS)) if context.get_start_method() == "fork" else ()
     pool = ProcessPoolExecutor(
-        workers, mp_context=_context(), initializer=_set_environment,
-        initargs=(_our_environment(),),
+        workers, mp_context=context, initializer=_set_environment,
+        initargs=(_our_environment(), close),
     )  # fmt: skip
     try:
         yield pool
@@ -117,13 +176,14 @@ def run_local(
 ) -> Iterator[tuple[int, Outcome]]:
     """Run tasks on ``workers`` local processes, yielding results as they complete."""
     pending = list(tasks)
+    engines, meshes = _engines(pending), _meshes(pending)
     attempts: dict[int, int] = {}
     suspects: list[GraspTask] = []
     while pending or suspects:
         if suspects:  # isolate: one task per pool until each suspect is cleared or convicted
             task = suspects.pop(0)
             attempts[task.index] = attempts.get(task.index, 0) + 1
-            with _pool(1) as pool:
+            with _pool(1, engines, meshes) as pool:
                 try:
                     outcome = pool.submit(task_fn, task).result()
                 except BrokenProcessPool:
@@ -134,19 +194,41 @@ def run_local(
                     continue
             yield task.index, outcome
             continue
-        in_flight, pending = yield from _run_pool(pending, workers, task_fn)
+        in_flight, pending = yield from _run_pool(pending, workers, task_fn, engines, meshes)
         suspects.extend(in_flight)
 
 
-def _run_pool(tasks, workers, task_fn):
-    """Run ``tasks`` with at most ``workers`` in flight (so few are suspects when a worker
-    dies). Returns (tasks in flight when a worker died, tasks not started yet)."""
+def _engines(tasks) -> frozenset[str]:
+    """The engines ``tasks`` run on (what a forked worker should find imported)."""
+    names = {str(getattr(getattr(t, "controller", None), "engine", "")) for t in tasks}
+    return frozenset(names - {""})
+
+
+_PRIMITIVE = frozenset({"sphere", "cylinder", "torus", "hyperboloid"})
+"""Built-in shapes whose objects the mujoco engine builds without trimesh (bullet builds every
+object's mesh with it)."""
+
+
+def _meshes(tasks) -> bool:
+    """Whether any of ``tasks`` builds its object with trimesh."""
+    for t in tasks:
+        engine = getattr(getattr(t, "controller", None), "engine", "mujoco")
+        if engine != "mujoco" or getattr(t, "mesh", None) is not None:
+            return True
+        if getattr(t, "shape", "sphere") not in _PRIMITIVE:
+            return True
+    return False
+
+
+def _run_pool(tasks, workers, task_fn, engines=frozenset(), meshes=False):
+    """Run ``tasks`` with at most ``workers + PREFETCH`` in flight (so few are suspects when a
+    worker dies). Returns (tasks in flight when a worker died, tasks not started yet)."""
     queue = list(tasks)
     in_flight: dict[Future, GraspTask] = {}
     try:
-        with _pool(workers) as pool:
+        with _pool(workers, engines, meshes) as pool:
             while queue or in_flight:
-                while queue and len(in_flight) < workers:
+                while queue and len(in_flight) < workers + PREFETCH:
                     # submit before taking the task off the queue: a pool that broke since the
                     # last wait raises here, and the task must stay queued, not vanish
                     future = pool.submit(task_fn, queue[0])

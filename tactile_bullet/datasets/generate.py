@@ -256,12 +256,18 @@ def _writer_lock(out: Path) -> Iterator[None]:
         handle = open(out / LOCK, "a")  # noqa: SIM115 - held until the with block ends
     except OSError as exc:
         raise UsageError(f"--out {out} is not writable ({exc.strerror or exc})") from None
+    from .executors import PARENT_ONLY_FDS
+
     with handle:
         try:
             fcntl.flock(handle, fcntl.LOCK_EX | fcntl.LOCK_NB)
         except OSError:
             raise UsageError(f"another generate is writing to {out}; let it finish") from None
-        yield
+        PARENT_ONLY_FDS.add(handle.fileno())  # forked workers close their copy
+        try:
+            yield
+        finally:
+            PARENT_ONLY_FDS.discard(handle.fileno())
 
 
 def _fill(out, manifest, todo, results, shard_size: int, progress: bool) -> None:

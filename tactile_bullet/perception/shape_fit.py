@@ -33,11 +33,14 @@ from ..errors import UsageError
 from ..objects.shapes import BUILTIN_SHAPES, THESIS_SHAPES, Shape, check_consistent
 from .grid_cache import grid_geometry
 from .shape_model import (
+    _XF,
     Calibration,
     _chain_features,
+    _reach,
     _sections,
     active_calibration,
     geometric_features,
+    nominal_centre,
 )
 
 OFFSET_X = (-0.02, 0.02)
@@ -165,6 +168,11 @@ class ShapeFit:
         }
 
 
+def _clip01(z: np.ndarray) -> np.ndarray:
+    """``np.clip(z, 0, 1)`` without its Python overhead (the same values, NaN kept)."""
+    return np.minimum(np.maximum(z, 0.0), 1.0)
+
+
 _POSE_LO = (OFFSET_X[0], OFFSET_Z[0], ROTATION[0])
 _POSE_HI = (OFFSET_X[1], OFFSET_Z[1], ROTATION[1])
 _GRID_CHUNK = 8192
@@ -190,6 +198,15 @@ class _Family:
         self.grid_geometry = grid_geometry(shape.name, self.grid, self._grid_geometry)
         self._cal: Calibration | None = None
         self._pred = self.grid_geometry[..., :2, :]
+        self._scaled: tuple | None = None
+        self._grid_prior = _prior_residual(self.grid) ** 2
+        # the validity of a grid point does not depend on its rotation, the grid's last and
+        # fastest axis: the rotation groups are then the columns of the costs reshaped
+        rots, cols = self.grid[:, -1], len(self.rotation_groups)
+        fastest = len(rots) % cols == 0 and np.array_equal(
+            rots.reshape(-1, cols), np.broadcast_to(np.unique(rots), (len(rots) // cols, cols))
+        )
+        self._rotation_columns = cols if fastest else 0
 
     def _grid_geometry(self, grid: np.ndarray) -> np.ndarray:
         return np.concatenate(
@@ -199,8 +216,30 @@ class _Family:
     def starts(self, cost: np.ndarray) -> np.ndarray:
         """Grid indices the search starts from: the best point of each grid rotation, the
         ``STARTS`` best of those (the best points overall tend to share one valley)."""
-        best = [group[np.argmin(cost[group])] for group in self.rotation_groups]
+        cols = self._rotation_columns
+        if cols:
+            best = list(np.argmin(cost.reshape(-1, cols), axis=0) * cols + np.arange(cols))
+        else:
+            best = [group[np.argmin(cost[group])] for group in self.rotation_groups]
         return np.array(sorted(best, key=lambda i: cost[i])[:STARTS])
+
+    def grid_costs(self, measured: np.ndarray, cal: Calibration) -> np.ndarray:
+        """:func:`_objective` over the whole grid in single precision, from predictions kept
+        divided by sigma and the loss scale: one subtraction, square and root per angle. Used
+        to pick the search's starts only (within ~1e-4 of a score; the starts' own costs are
+        then computed in double precision)."""
+        if self._scaled is None or self._scaled[0] is not cal:
+            scale = cal.sigma * cal.loss_scale
+            pred = self.grid_prediction(cal)
+            scaled = (pred / scale).reshape(len(pred), -1).astype(np.float32)
+            self._scaled = (cal, scaled, scale.ravel(), np.ones(scaled.shape[1], np.float32))
+        _, scaled, scale, ones = self._scaled
+        e = scaled - (measured.ravel() / scale).astype(np.float32)
+        np.square(e, out=e)
+        e += 1.0
+        np.sqrt(e, out=e)
+        c = cal.loss_scale
+        return 2.0 * c * c * (e @ ones - e.shape[1]) + self._grid_prior
 
     def grid_prediction(self, cal: Calibration) -> np.ndarray:
         """The grid's predicted angles under ``cal`` (kept for the last calibration used)."""
@@ -209,7 +248,7 @@ class _Family:
         return self._pred
 
     def values(self, z: np.ndarray) -> np.ndarray:
-        return self.lo + np.clip(z, 0.0, 1.0) * (self.hi - self.lo)
+        return self.lo + _clip01(z) * (self.hi - self.lo)
 
     def valid(self, z: np.ndarray) -> np.ndarray:
         v = self.values(z)
@@ -280,7 +319,7 @@ _ROTATION_SPAN = ROTATION[1] - ROTATION[0]
 def _prior_residual(z: np.ndarray) -> np.ndarray:
     """rotation / prior spread of normalised points (..., dims), rotation last: the prior's
     score is its square."""
-    beta = ROTATION[0] + np.clip(z[..., -1], 0.0, 1.0) * _ROTATION_SPAN
+    beta = ROTATION[0] + _clip01(z[..., -1]) * _ROTATION_SPAN
     return beta / math.radians(ROTATION_PRIOR_DEG)
 
 
@@ -289,17 +328,25 @@ def _objective(measured: np.ndarray, predicted: np.ndarray, z: np.ndarray, cal) 
     return _costs(measured, predicted, cal) + _prior_residual(z) ** 2
 
 
-def _accept(measured: np.ndarray, state: list, trials: list, cal: Calibration) -> set[int]:
-    """Score each (start index, candidates) of ``trials`` in one pass of the finger chain and
-    move each start to its best candidate where that improves on it; returns the starts that
-    moved."""
-    moved = set()
-    for (k, cand), pred in zip(trials, _predict(state, trials, cal), strict=True):
-        c = _objective(measured, pred, cand, cal)
+def _accept(
+    measured: np.ndarray, state: list, trials: list, cal: Calibration, preds=None
+) -> dict[int, int]:
+    """Score each (start index, candidates) of ``trials`` in one pass of the finger chain (or
+    from their predictions ``preds``, given) and move each start to its best candidate where
+    that improves on it; returns {start: the candidate it moved to}."""
+    moved = {}
+    preds = _predict(state, trials, cal) if preds is None else preds
+    pred_of = {k: p for (k, _), p in zip(trials, preds, strict=True)}
+    rotations = np.concatenate([c[:, -1:] for _, c in trials])  # all the prior reads
+    costs = _objective(measured, np.concatenate(preds), rotations, cal)
+    at = 0
+    for k, cand in trials:
+        c = costs[at : at + len(cand)]
+        at += len(cand)
         j = int(np.argmin(c))
         if c[j] < state[k][2]:
-            state[k][1], state[k][2] = cand[j], float(c[j])
-            moved.add(k)
+            state[k][1], state[k][2], state[k][5] = cand[j], float(c[j]), pred_of[k][j]
+            moved[k] = j
     return moved
 
 
@@ -309,19 +356,21 @@ def _fit(measured: np.ndarray, fams: Sequence[_Family], cal: Calibration) -> dic
     over all their candidates."""
     state = []
     for fam in fams:
-        cost = _objective(measured, fam.grid_prediction(cal), fam.grid, cal)
-        starts = fam.starts(cost)
+        starts = fam.starts(fam.grid_costs(measured, cal))
+        # the starts' costs exactly as the search computes every later point's
+        pred = fam.grid_prediction(cal)[starts]
+        exact = _objective(measured, pred, fam.grid[starts], cal)
         dims = fam.grid.shape[1]
-        for best in starts:
-            state.append([fam, fam.grid[best], float(cost[best]), fam.spacing / 2.0, _moves(dims)])
+        for best, cost, p in zip(starts, exact, pred, strict=True):
+            state.append([fam, fam.grid[best], float(cost), fam.spacing / 2.0, _moves(dims), p])
     # only starts whose grid score is near the best one's are worth refining
-    scores = [c + cal.penalty * len(f.names) for f, _, c, _, _ in state]
+    scores = [e[2] + cal.penalty * len(e[0].names) for e in state]
     near = [k for k, sc in enumerate(scores) if sc <= min(scores) + REFINE_MARGIN]
     for _ in range(REFINE_ROUNDS):
         parts = []
         for k in near:
-            fam, z, _, step, moves = state[k]
-            cand = np.clip(z + moves * step, 0.0, 1.0)
+            fam, z, _, step, moves, _ = state[k]
+            cand = _clip01(z + moves * step)
             cand = cand[fam.valid(cand)]
             if cand.size:
                 parts.append((k, cand))
@@ -337,12 +386,9 @@ def _fit(measured: np.ndarray, fams: Sequence[_Family], cal: Calibration) -> dic
         name = entry[0].shape.name
         if name not in best_of or entry[2] < best_of[name][2]:
             best_of[name] = entry
-    kept = list(best_of.values())
     out = {}
-    finals = _predict(kept, [(k, s[1][None]) for k, s in enumerate(kept)], cal)
-    for (fam, z, cost, _, _), final in zip(kept, finals, strict=True):
+    for fam, z, cost, _, _, predicted in best_of.values():  # each point's prediction as scored
         values = fam.values(z[None])[0]
-        predicted = final[0]
         out[fam.shape.name] = FamilyFit(
             shape=fam.shape.name,
             params={k: float(values[i]) for i, k in enumerate(fam.names)},
@@ -357,13 +403,60 @@ def _fit(measured: np.ndarray, fams: Sequence[_Family], cal: Calibration) -> dic
 
 def _predict(state, parts, cal: Calibration) -> list[np.ndarray]:
     """Predicted (n, 2, 4) angles of each (family index, candidates) in ``parts``, through one
-    pass of the finger chain over all of them."""
-    sections = [state[k][0].sections(cand) for k, cand in parts]
-    joined = [np.concatenate([sec[i] for sec in sections]) for i in range(4)]
-    geometry = _chain_features(*joined)
-    sizes = np.cumsum([len(cand) for _, cand in parts])[:-1]
-    return [cal.apply(g, state[k][0].shape.name)
-            for (k, _), g in zip(parts, np.split(geometry, sizes), strict=True)]  # fmt: skip
+    pass of the finger chain over all of them: the candidates of every family together, each
+    distinct (sizes, offset along O-O', rotation) once (:func:`_shared_sections`)."""
+    by_family: dict[_Family, list[int]] = {}
+    for i, (k, _) in enumerate(parts):
+        by_family.setdefault(state[k][0], []).append(i)
+    groups = [(fam, np.concatenate([parts[i][1] for i in idx])) for fam, idx in by_family.items()]
+    geometry = _chain_features(*_shared_sections(groups))
+    at, out = 0, [None] * len(parts)
+    for (fam, z), idx in zip(groups, by_family.values(), strict=True):
+        pred = cal.apply(geometry[at : at + len(z)], fam.shape.name)
+        at += len(z)
+        for i in idx:
+            out[i], pred = pred[: len(parts[i][1])], pred[len(parts[i][1]) :]
+    return out
+
+
+def _shared_sections(groups: Sequence[tuple[_Family, np.ndarray]]) -> tuple[np.ndarray, ...]:
+    """:func:`~.shape_model._sections` of every (family, points (n, dims)) in ``groups``,
+    concatenated: the sections of each distinct (sizes, offset along O-O', rotation) computed
+    once (the search's neighbours differ in the offset along the fingers in threes, and that
+    offset only shifts the section's centre), and the capsules' reach of all families in one
+    batch (each family's radius profile on its own rows)."""
+    values, inverses, firsts, y0s, spans = [], [], [], [], []
+    at = 0
+    for fam, z in groups:
+        key = np.delete(z, -2, axis=1)
+        _, first, inverse = np.unique(key, axis=0, return_index=True, return_inverse=True)
+        v = fam.values(z)
+        u = v[first]
+        params = {k: u[:, i] for i, k in enumerate(fam.names)}
+        # the nominal centre depends on the sizes and the rotation alone
+        sized = np.delete(key, -2, axis=1)[first]
+        _, once, again = np.unique(sized, axis=0, return_index=True, return_inverse=True)
+        y0, z0 = nominal_centre(fam.shape, {k: p[once] for k, p in params.items()}, u[once, -1])
+        y0 = y0[again.ravel()]
+        values.append(v[:, -2:-1])
+        firsts.append(u)
+        inverses.append(inverse.ravel() + at)
+        y0s.append(y0)
+        spans.append((fam, at, at + len(first), params))
+        at += len(first)
+    pose = np.concatenate([u[:, -3:] for u in firsts])
+
+    def radius(u: np.ndarray) -> np.ndarray:
+        return np.concatenate([
+            fam.shape.radius(u[a:b], **{k: v[:, None, None, None] for k, v in params.items()})
+            for fam, a, b, params in spans
+        ])  # fmt: skip
+
+    reach, side, rise = _reach(radius, _XF - pose[:, 0:1], pose[:, 2:3])
+    inverse = np.concatenate(inverses)
+    dz = np.concatenate(values)
+    y0 = np.concatenate(y0s)[:, None]
+    return reach[inverse], side[inverse], y0[inverse], z0 + dz + rise[inverse]
 
 
 POLISH_STEPS = 4
@@ -373,44 +466,79 @@ curved valleys (a larger object further out) that fixed-ratio steps crawl along.
 _DAMPING = (1e-3, 1e-1, 1e1)
 
 
+def _fd_points(z: np.ndarray, h: float) -> np.ndarray:
+    """A point and its finite-difference neighbours, one step ``h`` along each coordinate."""
+    return _clip01(np.vstack([z, z + h * np.eye(z.size)]))
+
+
 def _polish(measured: np.ndarray, state: list, near: list[int], cal: Calibration) -> None:
     """Damped Gauss-Newton on the soft-L1 cost (reweighted least squares), the near families
-    in lockstep: per step one batch of finite-difference points, one of trial steps."""
+    in lockstep. Each step's trial points are evaluated with their own finite-difference
+    neighbours, so the next step's Jacobian, around whichever trial a start moved to, is at
+    hand: one pass of the finger chain per step."""
     h = 1e-3
-    for _ in range(POLISH_STEPS):
-        parts = []
-        for k in near:
-            z, dims = state[k][1], state[k][1].size
-            parts.append((k, np.clip(np.vstack([z, z + h * np.eye(dims)]), 0.0, 1.0)))
-        trials = []
-        for (k, pts), pred in zip(parts, _predict(state, parts, cal), strict=True):
-            e = ((measured - pred[0]) / cal.sigma).ravel()
-            jac = (-(pred[1:] - pred[0]) / cal.sigma).reshape(len(pts) - 1, -1).T
-            jac /= np.maximum(pts[1:] - pts[0], 1e-12).sum(axis=1)  # per unit of z
-            w = 1.0 / np.sqrt(1.0 + (e / cal.loss_scale) ** 2)
-            # the rotation prior as one more (unweighted) residual, linear in z
-            prior_row = np.zeros(jac.shape[1])
-            prior_row[-1] = _ROTATION_SPAN / math.radians(ROTATION_PRIOR_DEG)
-            e = np.append(e, _prior_residual(pts[0]))
-            jac = np.vstack([jac, prior_row])
-            w = np.append(w, 1.0)
-            a = jac.T @ (w[:, None] * jac)
-            g = jac.T @ (w * e)
-            steps = []
-            for lam in _DAMPING:
-                m = a + lam * (np.diag(np.diag(a)) + 1e-9 * np.eye(len(g)))
-                try:
-                    steps.append(-np.linalg.solve(m, g))
-                except np.linalg.LinAlgError:
-                    continue
-            if steps:
-                cand = np.clip(pts[0] + np.array(steps), 0.0, 1.0)
-                cand = cand[state[k][0].valid(cand)]
-                if cand.size:
-                    trials.append((k, cand))
+    parts = [(k, _fd_points(state[k][1], h)) for k in near]
+    fd = dict(zip(near, _predict(state, parts, cal), strict=True))
+    for step in range(POLISH_STEPS):
+        trials = _polish_trials(measured, state, near, fd, h, cal)
         if not trials:
             return
-        _accept(measured, state, trials, cal)
+        if step == POLISH_STEPS - 1:  # no next Jacobian: the trials alone
+            _accept(measured, state, trials, cal)
+            return
+        blocks = [(k, np.concatenate([_fd_points(c, h) for c in cand])) for k, cand in trials]
+        block_preds = _predict(state, blocks, cal)
+        preds = [p[:: len(c[0]) + 1] for p, (_, c) in zip(block_preds, trials, strict=True)]
+        moved = _accept(measured, state, trials, cal, preds)
+        for (k, cand), p in zip(trials, block_preds, strict=True):
+            if k in moved:
+                n = len(cand[0]) + 1
+                fd[k] = p[moved[k] * n : (moved[k] + 1) * n]
+
+
+def _polish_trials(measured, state, near, fd, h, cal) -> list:
+    """One damped Gauss-Newton step of each near start from its point's finite differences
+    ``fd`` (predictions at the point and at +h along each coordinate): (start, trial points)."""
+    sigma = cal.sigma
+    by_dims: dict[int, list[int]] = {}
+    for k in near:
+        by_dims.setdefault(state[k][1].size, []).append(k)
+    trials = []
+    for dims, members in by_dims.items():
+        pred = np.stack([fd[k] for k in members])  # (S, dims + 1, 2, 4)
+        pts = np.stack([_fd_points(state[k][1], h) for k in members])  # (S, dims + 1, dims)
+        n = len(members)
+        e = ((measured - pred[:, 0]) / sigma).reshape(n, -1)
+        jac = (-(pred[:, 1:] - pred[:, :1]) / sigma).reshape(n, dims, -1).transpose(0, 2, 1)
+        jac = jac / np.maximum(pts[:, 1:] - pts[:, :1], 1e-12).sum(axis=2)[:, None, :]
+        w = 1.0 / np.sqrt(1.0 + (e / cal.loss_scale) ** 2)
+        # the rotation prior as one more (unweighted) residual, linear in z
+        prior_row = np.zeros(dims)
+        prior_row[-1] = _ROTATION_SPAN / math.radians(ROTATION_PRIOR_DEG)
+        e = np.concatenate([e, _prior_residual(pts[:, 0])[:, None]], axis=1)
+        jac = np.concatenate([jac, np.broadcast_to(prior_row, (n, 1, dims))], axis=1)
+        w = np.concatenate([w, np.ones((n, 1))], axis=1)
+        steps = np.full((n, len(_DAMPING), dims), np.nan)
+        for j in range(n):  # each start's normal equations as one 2-D product, one solve each
+            jj, wj = jac[j], w[j]
+            a = jj.T @ (wj[:, None] * jj)
+            g = jj.T @ (wj * e[j])
+            for d, lam in enumerate(_DAMPING):
+                m = a + lam * (np.diag(np.diag(a)) + 1e-9 * np.eye(len(g)))
+                try:
+                    steps[j, d] = -np.linalg.solve(m, g)
+                except np.linalg.LinAlgError:  # a singular one is left out
+                    continue
+        for j, k in enumerate(members):
+            ok = ~np.isnan(steps[j, :, 0])
+            if not ok.any():
+                continue
+            cand = _clip01(pts[j, 0] + steps[j, ok])
+            cand = cand[state[k][0].valid(cand)]
+            if cand.size:
+                trials.append((k, cand))
+    trials.sort(key=lambda t: near.index(t[0]))  # the order the starts were searched in
+    return trials
 
 
 def fit_shape(

@@ -60,10 +60,10 @@ def first_contact(py, pz, phi0, length, centre_y, centre_z, reach, limit=JOINT_M
     safe = np.maximum(dist, 1e-12)
     towards = np.arctan2(-vy, vz)
     towards = phi0 + np.mod(towards - phi0 + np.pi, 2 * np.pi) - np.pi
-    tangent = np.sqrt(np.clip(dist**2 - reach**2, 0.0, None))
-    phi_tangent = towards - np.arcsin(np.clip(reach / safe, 0.0, 1.0))
+    tangent = np.sqrt(np.maximum(dist**2 - reach**2, 0.0))
+    phi_tangent = towards - np.arcsin(np.minimum(np.maximum(reach / safe, 0.0), 1.0))
     cos_tip = (dist**2 + length**2 - reach**2) / (2.0 * length * safe)
-    phi_tip = towards - np.arccos(np.clip(cos_tip, -1.0, 1.0))
+    phi_tip = towards - np.arccos(np.minimum(np.maximum(cos_tip, -1.0), 1.0))
     phi_in = np.where(tangent <= length, phi_tangent, phi_tip)
     phi_out = 2.0 * towards - phi_in
     present = reach > 0
@@ -126,14 +126,14 @@ def _reach(radius_fn, along: np.ndarray, beta: np.ndarray) -> tuple[np.ndarray, 
     with np.errstate(invalid="ignore"):
         r = radius_fn(u)
     half2 = np.where(r > 0, r * r - w * w, 0.0)  # NaN (no such solid) counts as nothing there
-    half = np.sqrt(np.clip(half2, 0.0, None))
+    half = np.sqrt(np.maximum(half2, 0.0))
     grown = np.where(half > 0, half + _GROW[:, None], 0.0)
     flat = grown.reshape(grown.shape[:-2] + (-1,))
     best = flat.argmax(axis=-1)
     i_du, i_h = np.divmod(best, len(_HEIGHTS))
     row = np.take_along_axis(grown, i_du[..., None, None], -2)[..., 0, :]
     peak = np.take_along_axis(row, i_h[..., None], -1)[..., 0]
-    inner = np.clip(i_h, 1, len(_HEIGHTS) - 2)
+    inner = np.minimum(np.maximum(i_h, 1), len(_HEIGHTS) - 2)
     y0 = np.take_along_axis(row, (inner - 1)[..., None], -1)[..., 0]
     y2 = np.take_along_axis(row, (inner + 1)[..., None], -1)[..., 0]
     curve = y0 - 2.0 * peak + y2
@@ -190,12 +190,20 @@ def _sections(shape: Shape, params: Mapping[str, np.ndarray], pose) -> tuple[np.
     offset along O-O', offset along the fingers (m)[, rotation about the palm normal (rad)].
     Turned by beta, the axis crosses finger f's plane at z = z0 + dz - (x_f - dx) tan(beta)
     (``patterns.theoretical_angles``); the section's widest point lies off it (:func:`_reach`)."""
+    reach, side, y0, z0, rise = _section_parts(shape, params, pose)
+    return reach, side, y0, z0 + np.asarray(pose, dtype=float)[..., 1:2] + rise
+
+
+def _section_parts(shape: Shape, params: Mapping[str, np.ndarray], pose) -> tuple:
+    """:func:`_sections` before the offset along the fingers is added: reach, side, centre y,
+    the nominal centre z (a float) and the widest point's rise. None of them depends on that
+    offset, so points that differ only in it share them (the shape fit's search)."""
     pose = np.asarray(pose, dtype=float)
     beta = pose[..., 2:3] if pose.shape[-1] > 2 else np.zeros(pose.shape[:-1] + (1,))
     y0, z0 = nominal_centre(shape, params, beta[..., 0])
     sizes = {k: np.asarray(v, dtype=float)[..., None, None, None] for k, v in params.items()}
     reach, side, rise = _reach(lambda u: shape.radius(u, **sizes), _XF - pose[..., 0:1], beta)
-    return reach, side, y0[..., None], z0 + pose[..., 1:2] + rise
+    return reach, side, y0[..., None], z0, rise
 
 
 def _chain_features(reach, side, centre_y, centre_z) -> np.ndarray:
@@ -282,7 +290,7 @@ class Calibration:
         intercept = self.intercept
         if family in self.family:
             intercept = intercept + self.family[family]
-        corrected = intercept + self.gain * angles + self.side * np.clip(side, 0.0, None)
+        corrected = intercept + self.gain * angles + self.side * np.maximum(side, 0.0)
         return np.where(side >= 0, corrected, angles)
 
     def to_dict(self) -> dict:

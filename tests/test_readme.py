@@ -134,7 +134,8 @@ def test_the_two_set_up_commands_are_what_ci_runs():
     assert demo.rstrip().endswith("tactile-bullet demo --out demo-report")
     ci = (REPO / ".ci" / "run").read_text()
     cpu = "--extra-index-url https://download.pytorch.org/whl/cpu"
-    for step in ('pip install --quiet -e ".[test]" ./plugins/tactile-bullet-example ' + cpu,
+    # CI's machines hold the CPU torch and reach no other index: the test command names none
+    for step in ('pip install --quiet -e ".[test]" ./plugins/tactile-bullet-example',
                  "python -m pytest -q"):  # fmt: skip
         assert step.replace(" --quiet", "") in tests and step in ci
     for extra in ("torch", "ros"):  # what the tour needs: the neural forest, bags

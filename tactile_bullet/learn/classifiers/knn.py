@@ -3,7 +3,8 @@
 The search is a plain numpy distance matrix (in chunks) rather than scikit-learn's
 KNeighborsClassifier: grasp data sets are small (hundreds to thousands of records), and
 scikit-learn's search layers cost several milliseconds per single-grasp call, above the 5 ms
-budget for identifying one grasp.
+budget for identifying one grasp. It saves itself as numeric arrays (``to_state``), so a model
+file of it loads without skops, whose import alone costs ~2 s (the default identifier is one).
 """
 
 from __future__ import annotations
@@ -73,3 +74,47 @@ class KNNClassifier(ClassifierMixin, BaseEstimator):
     def predict(self, X) -> np.ndarray:
         proba = self.predict_proba(X)
         return self.classes_[np.argmax(proba, axis=1)]
+
+    # -- saving (learn/models.py's state protocol) -------------------------------------------
+
+    def to_state(self) -> tuple[dict, dict[str, np.ndarray]]:
+        """Parameters as JSON, the standardised training set as numeric arrays (no pickle)."""
+        check_is_fitted(self)
+        classes = np.asarray(self.classes_)
+        if classes.dtype.kind not in "biuU":
+            classes = classes.astype(str)
+        arrays = {"classes": classes, "y_index": np.asarray(self.y_index_, dtype=np.int64),
+                  "mean": self.mean_, "scale": self.scale_, "train": self.train_}  # fmt: skip
+        state = {"params": {"n_neighbors": int(self.n_neighbors), "weights": self.weights},
+                 "n_features_in": int(self.n_features_in_)}  # fmt: skip
+        return state, arrays
+
+    @classmethod
+    def from_state(cls, state: dict, arrays: dict[str, np.ndarray]) -> KNNClassifier:
+        """Rebuild a fitted estimator from ``to_state``'s output, checking every shape."""
+        params = state["params"]
+        est = cls(n_neighbors=params["n_neighbors"], weights=params["weights"])
+        k = est.n_neighbors
+        if isinstance(k, bool) or not isinstance(k, int) or k < 1:
+            raise ValueError(f"n_neighbors {k!r} is not a count")
+        if est.weights not in ("distance", "uniform"):
+            raise ValueError(f"weights {est.weights!r} is not distance or uniform")
+        n = int(state["n_features_in"])
+        est.classes_ = np.asarray(arrays["classes"])
+        est.y_index_ = np.asarray(arrays["y_index"])
+        est.mean_ = np.asarray(arrays["mean"], dtype=float)
+        est.scale_ = np.asarray(arrays["scale"], dtype=float)
+        est.train_ = np.asarray(arrays["train"], dtype=float)
+        if est.mean_.shape != (n,) or est.scale_.shape != (n,) or est.train_.ndim != 2 \
+                or est.train_.shape[1] != n or len(est.train_) < 1:  # fmt: skip
+            raise ValueError("the training set does not match its feature count")
+        if est.y_index_.shape != (len(est.train_),) or est.y_index_.dtype.kind not in "iu" or \
+                est.y_index_.min() < 0 or est.y_index_.max() >= len(est.classes_):  # fmt: skip
+            raise ValueError("the training labels do not match the classes")
+        for name in ("mean_", "scale_", "train_"):
+            if not np.all(np.isfinite(getattr(est, name))):
+                raise ValueError(f"{name.rstrip('_')} holds non-numbers")
+        if np.any(est.scale_ <= 0):
+            raise ValueError("scale is not positive")
+        est.n_features_in_ = n
+        return est

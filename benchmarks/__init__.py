@@ -30,6 +30,8 @@ FAST: dict[str, tuple[str, ...]] = {
 arguments ``python -m benchmarks`` runs them with."""
 
 NEEDS: dict[str, str] = {
+    "shape_fit_equivalence": "git (it loads the shape fit of --ref, default adcd9c0, beside this "
+    "one); --data DIR adds a simulated set (e.g. generate --preset thesis), minutes",
     "closure_by_hand": "a full-scale robustness matrix's cache (`tactile-bullet benchmark "
     "--protocol robustness --other-hand ... --out DIR`, then --cache DIR/data)",
     "known_grasps": "a full-scale robustness matrix with both hands written by others "

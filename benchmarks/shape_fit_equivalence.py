@@ -12,7 +12,7 @@ Reports: how often the two name the same family, the largest difference of the n
 score and of every family's score, the accuracy of each on the datasets' grasps, and the median
 time per grasp of each (measured alternately, grids built and cached before timing).
 
-Usage: python tools/shape_fit_equivalence.py [--ref COMMIT] [--data DIR] [--limit N]
+Usage: python benchmarks/shape_fit_equivalence.py [--ref COMMIT] [--data DIR] [--limit N]
 [--no-grid]
 """
 
@@ -23,15 +23,12 @@ import subprocess
 import sys
 import time
 import types
-from pathlib import Path
 
 import numpy as np
+from _report import REPO, provenance  # first: this checkout ahead of an installed copy
 
-ROOT = Path(__file__).resolve().parent.parent
-sys.path.insert(0, str(ROOT))
-
-from tactile_bullet.objects.shapes import BUILTIN_SHAPES, THESIS_SHAPES  # noqa: E402
-from tactile_bullet.perception import shape_fit, shape_model  # noqa: E402
+from tactile_bullet.objects.shapes import BUILTIN_SHAPES, THESIS_SHAPES
+from tactile_bullet.perception import shape_fit, shape_model
 
 REFERENCE = "adcd9c0"
 """main before issue 30's speed work (the shape fit's grid search, then per-start refinement)."""
@@ -45,7 +42,7 @@ NOISE_RAD = np.radians(1.0)
 def _load(commit: str, path: str, name: str, edit=lambda src: src) -> types.ModuleType:
     src = subprocess.run(
         ["git", "show", f"{commit}:tactile_bullet/perception/{path}"],
-        cwd=ROOT, check=True, capture_output=True, text=True,
+        cwd=REPO, check=True, capture_output=True, text=True,
     ).stdout  # fmt: skip
     mod = types.ModuleType(f"tactile_bullet.perception.{name}")
     mod.__package__ = "tactile_bullet.perception"
@@ -180,6 +177,7 @@ def main(argv=None) -> int:
     ap.add_argument("--no-grid", action="store_true", help="skip the model-angle grid")
     ap.add_argument("--every", type=int, default=1, help="every Nth point of the grid only")
     args = ap.parse_args(argv)
+    provenance(argv)
     ref = reference_module(args.ref)
     for name in THESIS_SHAPES:  # grids built (or read from the cache) before any timing
         ref.fit_shape(np.full((3, 4), 0.5))

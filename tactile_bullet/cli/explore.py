@@ -17,7 +17,7 @@ from .common import (
     parse_rotation,
     seed_number,
 )
-from .shape_info import add_mesh_options, mesh_shape
+from .shape_info import add_object_options, mesh_shape
 
 
 def add_parser(sub) -> None:
@@ -30,23 +30,13 @@ def add_parser(sub) -> None:
         "the likely shapes, simulated at the sizes and pose the shape fit gives them, predict "
         "the most different answers, and grasp there; up to --max-grasps.",
     )
-    source = parser.add_mutually_exclusive_group(required=True)
-    source.add_argument("--shape", help="the object: a registered shape")
-    source.add_argument("--mesh", metavar="FILE", help="the object: a mesh file")
-    add_mesh_options(parser)
-    parser.add_argument(
-        "--param", action="append", metavar="KEY=VALUE", help="shape size in metres (repeatable)"
+    add_object_options(
+        parser,
+        "the first grasp's object offset in metres (default 0,0,0; reachable: +-0.015 along "
+        "O-O', +-0.010 along the fingers)",
+        "the first grasp's object rotation about the palm normal, degrees (reachable: +-25; "
+        "default 0)",
     )
-    parser.add_argument(
-        "--offset", default="0,0,0", metavar="X,Y,Z",
-        help="the first grasp's object offset in metres (default 0,0,0; reachable: +-0.015 "
-        "along O-O', +-0.010 along the fingers)",
-    )  # fmt: skip
-    parser.add_argument(
-        "--rotation", default="0", metavar="DEG",
-        help="the first grasp's object rotation about the palm normal, degrees (reachable: "
-        "+-25; default 0)",
-    )  # fmt: skip
     parser.add_argument(
         "--max-grasps", type=_grasps, default=3, metavar="K", help="at most K grasps (default 3)"
     )

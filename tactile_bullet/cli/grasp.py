@@ -19,7 +19,7 @@ from .common import (
     parse_rotation,
     seed_number,
 )
-from .shape_info import add_mesh_options, mesh_block, mesh_shape, mesh_summary
+from .shape_info import add_object_options, mesh_block, mesh_shape, mesh_summary
 
 
 def add_parser(sub) -> None:
@@ -28,21 +28,11 @@ def add_parser(sub) -> None:
         help="simulate one enclosure grasp (thesis Algorithm 1) on a shape",
         description="Simulate one enclosure grasp of the Shadow hand on a static object.",
     )
-    what = parser.add_mutually_exclusive_group(required=True)
-    what.add_argument("--shape", help="shape name (see `tactile-bullet shapes`)")
-    what.add_argument("--mesh", metavar="FILE", help="a mesh file (see docs/meshes.md)")
-    add_mesh_options(parser)
-    parser.add_argument(
-        "--param", action="append", metavar="KEY=VALUE", help="shape size in metres (repeatable)"
-    )
-    parser.add_argument(
-        "--offset", default="0,0,0", metavar="X,Y,Z",
-        help="object offset from its resting place in metres, palm frame: x along O-O', "
-        "y along the palm normal (positive toward the palm), z along the fingers (default 0,0,0)",
-    )  # fmt: skip
-    parser.add_argument(
-        "--rotation", default="0", metavar="DEG",
-        help="object rotation about the palm normal in degrees, within +-90 (default 0)",
+    add_object_options(
+        parser,
+        "object offset from its resting place in metres, palm frame: x along O-O', y along the "
+        "palm normal (positive toward the palm), z along the fingers (default 0,0,0)",
+        "object rotation about the palm normal in degrees, within +-90 (default 0)",
     )
     parser.add_argument(
         "--mode", choices=("torque", "contact"), default="torque",

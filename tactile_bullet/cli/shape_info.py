@@ -118,3 +118,17 @@ def _text(doc: dict) -> str:
     if "outputs" in doc:
         lines.append(f"wrote plot: {doc['outputs']['plot']}")
     return "\n".join(lines)
+
+
+def add_object_options(parser, offset_help: str, rotation_help: str) -> None:
+    """The object of a simulated grasp: ``--shape`` or ``--mesh`` (with the mesh options),
+    ``--param`` sizes, ``--offset`` and ``--rotation`` (each command says its own range)."""
+    what = parser.add_mutually_exclusive_group(required=True)
+    what.add_argument("--shape", help="shape name (see `tactile-bullet shapes`)")
+    what.add_argument("--mesh", metavar="FILE", help="a mesh file (see docs/meshes.md)")
+    add_mesh_options(parser)
+    parser.add_argument(
+        "--param", action="append", metavar="KEY=VALUE", help="shape size in metres (repeatable)"
+    )
+    parser.add_argument("--offset", default="0,0,0", metavar="X,Y,Z", help=offset_help)
+    parser.add_argument("--rotation", default="0", metavar="DEG", help=rotation_help)

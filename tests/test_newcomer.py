@@ -190,3 +190,49 @@ def test_a_grasps_shape_fit_is_computed_once(monkeypatch):
     assert again is first and len(calls) == 1
     shape_fit.fit_shape(angles, ["sphere", "torus"])  # other families: fitted anew
     assert len(calls) == 2
+
+
+def _recording(root, test):
+    """The test set exported as a hand's CSV (made once per module)."""
+    path = root / "session.csv"
+    if not path.exists():
+        assert main(["export", "--data", str(test), "--format", "csv", "--out", str(path)]) == 0
+    return path
+
+
+@pytest.mark.parametrize(
+    "command", ["calibrate", "import", "identify --recording", "temporal", "sequential"]
+)
+def test_the_other_long_commands_print_progress_with_time_left(command, folders, capsys,
+                                                               monkeypatch):  # fmt: skip
+    root, train, test = folders
+    csv = _recording(root, test)
+    if command == "temporal":  # chapter 3 reads the grasps as they ran: four simulated ones
+        train = root / "smoke"
+        if not train.exists():
+            assert main(["generate", "--preset", "smoke", "--out", str(train),
+                         "--workers", "1"]) == 0  # fmt: skip
+    capsys.readouterr()
+    out = root / command.replace(" --", "-")
+    argv = {
+        "calibrate": ["calibrate", "--data", str(train), "--out", str(out) + ".toml", "--force"],
+        "import": ["import", str(csv), "--out", str(out), "--force"],
+        "identify --recording": ["identify", "--recording", str(csv)],
+        "temporal": ["temporal", "--data", str(train), "--out", str(out), "--force"],
+        "sequential": ["sequential", "--data", str(train), "--out", str(out), "--orders", "1",
+                       "--n-updates", "5", "--recalibration", "2", "--force"],
+    }[command]  # fmt: skip
+    err = _progress(capsys, monkeypatch, argv)
+    lines = [line for line in err.splitlines() if line.endswith(" left")]
+    assert lines, err
+    assert all("/s" in line for line in lines)
+
+
+def test_benchmark_prints_progress_with_time_left(tmp_path, capsys, monkeypatch):
+    argv = ["benchmark", "--scale", "tiny", "--protocol", "in-distribution", "--descriptor",
+            "signature", "--classifier", "knn", "--training", "clean", "--out",
+            str(tmp_path / "b"), "--workers", "1"]  # fmt: skip
+    err = _progress(capsys, monkeypatch, argv)
+    lines = [line for line in err.splitlines() if line.endswith(" left")]
+    assert lines, err
+    assert all("/s" in line for line in lines)

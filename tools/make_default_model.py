@@ -50,8 +50,7 @@ def main() -> None:
     commit = subprocess.run(["git", "-C", str(ROOT), "rev-parse", "--short", "HEAD"],
                             capture_output=True, text=True).stdout.strip()  # fmt: skip
     info = {"default": {"method": best["method"], "training": best["training"]}}
-    model = R.fit_model(best["descriptor"], best["params"], best["classifier"], records,
-                        info=info)  # fmt: skip
+    model = R.fit_model(best["descriptor"], best["params"], best["classifier"], records, info)
     print(f"{best['method']} ({best['training']}) on {len(records)} grasps; worst column "
           f"{100 * best['score']:.1f}%, mean {100 * best['mean']:.1f}%")
     print(f"doubt: {model.info['doubt'].get('margin')}, novelty threshold "

@@ -154,14 +154,12 @@ def score_matrix(
     sets: Mapping[str, list[GraspRecord]],
     candidates: Sequence[Candidate],
     seed: int = 0,
-    show: bool = False,
     log: Callable[[str], None] | None = None,
 ) -> list[dict[str, Any]]:
     """One row per candidate and training: accuracy, doubt and unknown share per column (None
     with a ``reason`` where the method cannot run there), its score and its eligibility."""
-    from ..learn.doubt import calibrate_margin, cross_flags, flagged, margins
-    from ..learn.novelty import Novelty
-    from ..plugins import compatible, get_classifier, get_descriptor
+    from ..learn.doubt import cross_flags, flagged, margins
+    from ..plugins import compatible, get_descriptor
 
     say = log or (lambda _m: None)
     columns = [c for c in COLUMNS if all(s in sets for s in c.sets)]
@@ -182,8 +180,7 @@ def score_matrix(
         train = [r for s in TRAININGS[training] for r in sets[s]]
         y = _labels(train)
         x = np.asarray(desc.transform(train), float)
-        fitted = _fit(cand, x, y, train, seed, fit_cache, calibrate_margin, get_classifier,
-                      Novelty)  # fmt: skip
+        fitted = _fit(cand, x, y, train, seed, fit_cache)
         classes = [str(c) for c in fitted.estimator.classes_]
         for col, name in [*((c, c.name) for c in columns), *((None, n) for n in oof)]:
             records = tests[name] if col else oof[name]
@@ -218,7 +215,14 @@ def score_matrix(
     return rows
 
 
-def _fit(cand, x, y, train, seed, fit_cache, calibrate_margin, get_classifier, Novelty):
+def _fit(cand: Candidate, x: np.ndarray, y: np.ndarray, train, seed: int,
+         fit_cache: dict[int, str]) -> _Fitted:  # fmt: skip
+    """The candidate fitted on one training, its doubt calibrated (the shape fit's answers read
+    once a run) and its novelty."""
+    from ..learn.doubt import calibrate_margin
+    from ..learn.novelty import Novelty
+    from ..plugins import get_classifier
+
     estimator = get_classifier(cand.classifier).fit(x, y)
     if cand.classifier == "shape-fit":
         calibration: dict[str, Any] = {"margin": None, "cross_check": None}
@@ -339,7 +343,7 @@ def run_robustness(
     for short, spec in specs.items():
         sets[short], _missed = load_set(cache_dir / spec.name)
     simulated = time.perf_counter() - started
-    rows = score_matrix(sets, chosen, seed=seed, show=show, log=say)
+    rows = score_matrix(sets, chosen, seed=seed, log=say)
     best = winner(rows)
     missing = [c.name for c in COLUMNS if c.hand and c.hand not in hands]
     doc = {
@@ -373,29 +377,17 @@ __all__ = ["CANDIDATES", "COLUMNS", "Candidate", "Column", "run_robustness", "sc
 
 def fit_model(
     descriptor: str, params: Mapping[str, Any], classifier: str,
-    records: Sequence[GraspRecord], seed: int = 0, info: Mapping[str, Any] | None = None,
+    records: Sequence[GraspRecord], info: Mapping[str, Any] | None = None,
 ):  # fmt: skip
     """A saved-model-ready :class:`~tactile_bullet.learn.models.Model` of one method on
-    ``records``: the classifier, its doubt (margin and the shape fit's second opinion,
-    calibrated on held-out folds) and its novelty (unknown at most 5% of held-out in-family
-    grasps); what ``tools/make_default_model.py`` ships."""
-    from ..learn.doubt import model_doubt
-    from ..learn.models import Model
-    from ..learn.novelty import Novelty
-    from ..plugins import get_classifier, get_descriptor
+    ``records``, as ``train`` makes it (its doubt and novelty calibrated on held-out folds),
+    with ``info`` and the number of training grasps added; what
+    ``tools/make_default_model.py`` ships."""
+    from .training import train
 
-    desc = get_descriptor(descriptor, **dict(params))
-    x = np.asarray(desc.transform(records), float)
-    y = _labels(records)
-    estimator = get_classifier(classifier).fit(x, y)
-    doubt: dict[str, Any] = {"margin": None, "cross_check": None}
-    if classifier != "shape-fit":
-        doubt = model_doubt(lambda: get_classifier(classifier), x, y, records, classifier)
-    novelty = Novelty.fit(x, y, seed=seed)
-    return Model(descriptor, dict(params), classifier, {}, estimator,
-                 info={**dict(info or {}), "doubt": doubt, "novelty": novelty.summary(),
-                       "train_records": len(records)},
-                 novelty=novelty)  # fmt: skip
+    model = train(records, descriptor, classifier, descriptor_params=dict(params))
+    model.info.update({**dict(info or {}), "train_records": len(records)})
+    return model
 
 
 def training_records(cache: Path, scale: str, training: str) -> list[GraspRecord]:

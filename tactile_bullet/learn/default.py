@@ -73,9 +73,3 @@ def resolve_model(path):
     from .models import load_model
 
     return load_model(path)
-
-
-def describe() -> str:
-    """One line naming the default method and its training (for answers and ``--help``)."""
-    meta = default_meta()
-    return f"{meta.get('method', '?')}, trained {meta.get('training', '?')}"

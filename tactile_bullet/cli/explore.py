@@ -8,8 +8,10 @@ import argparse
 from ..errors import UsageError
 from .common import (
     add_engine_flag,
+    add_force_flag,
     emit_json,
     engine_settings,
+    image_file,
     output_files,
     parse_key_values,
     parse_number,
@@ -51,7 +53,7 @@ def add_parser(sub) -> None:
         "simulated (how well each likely shape, simulated at that pose, explains the grasp)",
     )  # fmt: skip
     parser.add_argument("--plot", metavar="PNG", help="draw the posterior after each grasp")
-    parser.add_argument("--force", action="store_true", help="replace an existing --plot")
+    add_force_flag(parser, "--plot")
     parser.add_argument("--seed", type=seed_number, default=0, help="seed (random strategy)")
     add_engine_flag(parser, hand_model=True)
     parser.add_argument("--json", action="store_true", help="print one JSON document")
@@ -77,8 +79,6 @@ def run(args: argparse.Namespace) -> int:
                            "the first pose")  # fmt: skip
     outputs = output_files({"plot": args.plot}, args.force)
     if "plot" in outputs:
-        from .common import image_file
-
         image_file(outputs["plot"], "--plot", "matplotlib")
     from ..sim.grasp import resolve_shape
 

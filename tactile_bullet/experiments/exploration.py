@@ -142,12 +142,18 @@ def probabilities(model, answer: Mapping[str, Any]) -> np.ndarray:
     return np.array([float(probs.get(c, 0.0)) for c in classes])
 
 
-def fused_answer(model, answers: Sequence[Mapping[str, Any]]) -> dict[str, Any]:
+def fused_answer(model, answers: Sequence[Mapping[str, Any]],
+                 likelihoods: Sequence[np.ndarray] | None = None) -> dict[str, Any]:  # fmt: skip
     """The answer after every grasp so far: ``shape`` (the posterior's best), ``posterior``
     ({shape: p}), ``ambiguous`` ([best, runner-up] while the best is under ``SURE``, else
-    None) and ``unknown`` (at least half the grasps answered unknown)."""
+    None) and ``unknown`` (at least half the grasps answered unknown). With ``likelihoods``
+    (the later grasps read by simulation, :func:`simulated_likelihoods`) the posterior is the
+    first grasp's answer times them, in place of the later grasps' own answers."""
     classes = [str(c) for c in model.classes]
-    post = fuse([probabilities(model, a) for a in answers])
+    if likelihoods is None:
+        post = fuse([probabilities(model, a) for a in answers])
+    else:
+        post = fuse([probabilities(model, answers[0]), *likelihoods])
     order = np.argsort(-post)
     best, second = classes[order[0]], classes[order[1]]
     unknown = sum(bool(a.get("unknown")) for a in answers) * 2 >= len(answers)
@@ -292,18 +298,12 @@ def expected_gain(model, prior: np.ndarray, hyps: Sequence[Hypothesis], move, fi
     expected = 0.0
     for h, w in zip(hyps, weights, strict=True):
         pose = moved(h.pose, move)
-        found = []
-        for sizes in _outcomes(h, outcomes):
-            try:
-                record = cache.grasp(h.shape, sizes, pose, controller)
-            except UsageError:
-                record = None
-            if record is not None:
-                found.append(record)
+        found = [r for sizes in _outcomes(h, outcomes)
+                 if (r := cache.grasp(h.shape, sizes, pose, controller)) is not None]
         if not found:  # no simulated outcome: this move tells nothing about this hypothesis
             expected += w * _entropy(prior)
             continue
-        names, proba = model.predict_with_proba(found)
+        _, proba = model.predict_with_proba(found)
         for row in proba if proba is not None else [None] * len(found):
             post = fuse([prior, row]) if row is not None else prior
             expected += w * _entropy(post) / len(found)
@@ -418,7 +418,7 @@ def explore(
             if hyps is None:
                 hyps = hypotheses(model, grasps[:1], fused_answer(model, answers[:1]))
             rows = simulated_likelihoods(model, grasps, hyps, controller, cache)
-            fused = _with_likelihoods(model, answers, rows)
+            fused = fused_answer(model, answers, rows)
         history.append(fused)
         entries.append({"pose": _pose_doc(pose), "answer": answers[-1],
                         "posterior": fused["posterior"]})  # fmt: skip
@@ -442,20 +442,6 @@ def explore(
         else:
             pose = first
     return {"answer": fused, "grasps": entries, "decisions": decisions, "fused": history}
-
-
-def _with_likelihoods(model, answers, rows: Sequence[np.ndarray]) -> dict[str, Any]:
-    """The fused answer of the first grasp's own answer and the simulated likelihoods of the
-    later ones (``ambiguous``/``unknown`` by the rules of :func:`fused_answer`)."""
-    classes = [str(c) for c in model.classes]
-    post = fuse([probabilities(model, answers[0]), *rows])
-    order = np.argsort(-post)
-    unknown = sum(bool(a.get("unknown")) for a in answers) * 2 >= len(answers)
-    return {"shape": classes[order[0]],
-            "posterior": {c: float(p) for c, p in zip(classes, post, strict=True)},
-            "ambiguous": None if post[order[0]] >= SURE else [classes[order[0]],
-                                                              classes[order[1]]],
-            "unknown": bool(unknown), "grasps": len(answers)}  # fmt: skip
 
 
 def _pose_doc(pose: Pose) -> dict[str, Any]:

@@ -30,6 +30,8 @@ FAST: dict[str, tuple[str, ...]] = {
 arguments ``python -m benchmarks`` runs them with."""
 
 NEEDS: dict[str, str] = {
+    "cylinder_cone_fit": "no dataset; simulates four cylinders (seconds)",
+    "novelty_alternatives": "a full-scale robustness matrix's cache (--cache DIR/data), minutes",
     "shape_fit_equivalence": "git (it loads the shape fit of --ref, default adcd9c0, beside this "
     "one); --data DIR adds a simulated set (e.g. generate --preset thesis), minutes",
     "closure_by_hand": "a full-scale robustness matrix's cache (`tactile-bullet benchmark "

@@ -18,7 +18,7 @@ import numpy as np
 
 from tactile_bullet.hand import FINGER_X, JOINT_NAMES, LONG_FINGERS, THUMB_OPPOSED
 from tactile_bullet.objects.shapes import BUILTIN_SHAPES, THESIS_SHAPES
-from tactile_bullet.records import ControllerSettings, GraspRecord, Pose
+from tactile_bullet.records import ControllerSettings, GraspRecord, Pose, save_record
 
 START_PHI = 0.2
 """Where the finger first meets the object, from the palm side (rad)."""
@@ -150,3 +150,11 @@ name = "sphere"
 params = { radius = [0.04, 0.05] }
 """
 """Four real grasps (two cylinders, two spheres): the dataset tests' sweep."""
+
+
+def write_records(folder, records):
+    """``records`` as a folder of record files, the way tests hand the CLI a small dataset."""
+    folder.mkdir(parents=True, exist_ok=True)
+    for i, rec in enumerate(records):
+        save_record(rec, folder / f"rec{i:03d}.npz")
+    return folder

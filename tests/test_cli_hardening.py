@@ -11,18 +11,11 @@ from dataclasses import replace
 import numpy as np
 import pytest
 from cli_helpers import run_error
-from synthetic import make_record, make_records
+from synthetic import make_record, make_records, write_records
 
 from tactile_bullet.cli import join_negative_values, main
 from tactile_bullet.errors import UsageError
 from tactile_bullet.records import save_record
-
-
-def write_records(folder, records):
-    folder.mkdir(parents=True, exist_ok=True)
-    for i, rec in enumerate(records):
-        save_record(rec, folder / f"rec{i:03d}.npz")
-    return folder
 
 
 @pytest.fixture(scope="module")

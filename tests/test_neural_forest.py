@@ -258,8 +258,7 @@ def test_a_device_this_machine_lacks_is_a_usage_error(device, problem) -> None:
 def test_cli_refuses_cuda_on_a_cpu_build_and_huge_depth_with_one_line(capsys, tmp_path) -> None:
     import torch
     from cli_helpers import run_error
-    from synthetic import make_records
-    from test_cli_workflow import write_records
+    from synthetic import make_records, write_records
 
     data = write_records(tmp_path / "data", make_records(per_shape=3, seed=4))
     base = ["train", "--data", str(data), "--classifier", "neural-forest"]

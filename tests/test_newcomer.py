@@ -11,7 +11,7 @@ import sys
 
 import numpy as np
 import pytest
-from test_cli_workflow import write_records
+from synthetic import write_records
 from test_workflow import synthetic_set
 
 from tactile_bullet.cli import main

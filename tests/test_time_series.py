@@ -249,7 +249,7 @@ def test_tcn_is_paired_with_the_time_series_only():
     ],
 )
 def test_bad_tcn_parameters_exit_2_before_training(param, message, capsys, tmp_path):
-    from test_cli_workflow import write_records
+    from synthetic import write_records
 
     data = write_records(tmp_path / "data", make_records(per_shape=2, seed=5))
     err = run_error(

@@ -202,12 +202,13 @@ def evaluate(model, records: Iterable[GraspRecord]) -> dict[str, Any]:
             f"the data's shapes ({', '.join(sorted(set(y_true)))}) are none of the model's "
             f"classes ({', '.join(known)})"
         )
-    y_pred, proba = model.predict_with_proba(records)
+    x = model.features(records)
+    y_pred, proba = model.predict_with_proba(records, x)
     y_pred = np.asarray(y_pred).astype(str)
     doc = evaluation_report(y_true, y_pred, class_order(known, y_true), records)
     from ..learn.doubt import evaluation_doubt
 
-    doc["ambiguous"] = evaluation_doubt(model, records, y_true, y_pred, proba)
+    doc["ambiguous"] = evaluation_doubt(model, records, y_true, y_pred, proba, features=x)
     # grasps of no family the model knows, counted apart from the family's (learn/novelty.py)
     doc["unknown"] = doc["ambiguous"].pop("unknown")
     unknown = sorted(set(y_true) - set(known))
@@ -249,7 +250,8 @@ def identify(model, record: GraspRecord) -> dict[str, Any]:
                 "ambiguous": None, "cross_check": None, "unknown": False,
                 "novelty": None}  # fmt: skip
     classes = [str(c) for c in model.classes]
-    names, proba = model.predict_with_proba([record])
+    x = model.features([record])
+    names, proba = model.predict_with_proba([record], x)
     shape = str(names[0])
     if proba is None:
         probabilities = {c: float(c == shape) for c in classes}
@@ -257,7 +259,7 @@ def identify(model, record: GraspRecord) -> dict[str, Any]:
         probabilities = {c: float(p) for c, p in zip(classes, proba[0], strict=True)}
     from ..learn.doubt import doubts
 
-    (doubt,) = doubts(model, [record], [shape], proba)
+    (doubt,) = doubts(model, [record], [shape], proba, features=x)
     return {"shape": shape, "probabilities": probabilities, **doubt}
 
 

@@ -428,10 +428,11 @@ def second_opinion(model) -> str | None:
 
 def doubts(
     model, records: Sequence, names: Sequence[str], proba: np.ndarray | None,
-    cross_check: bool = True,
+    cross_check: bool = True, features: np.ndarray | None = None,
 ) -> list:  # fmt: skip
     """:func:`answer_doubt` of each of a model's answers, with its second opinion
-    (:func:`second_opinion`; unless ``cross_check`` is False: the margin only, sooner)."""
+    (:func:`second_opinion`; unless ``cross_check`` is False: the margin only, sooner).
+    ``features``: the records' features where the caller has them (else computed again)."""
     classes = [str(c) for c in model.classes]
     threshold = model.doubt_margin
     others: Sequence[str | None] = [None] * len(names)
@@ -443,7 +444,8 @@ def doubts(
     novelty = getattr(model, "novelty", None)
     scores: Sequence[float | None] = [None] * len(names)
     if novelty is not None and len(records):
-        scores = [float(v) for v in novelty.scores(model.features(records))]
+        x = model.features(records) if features is None else features
+        scores = [float(v) for v in novelty.scores(x)]
     limit = None if novelty is None else novelty.threshold
     return [
         answer_doubt(classes, str(n), None if proba is None else proba[i], threshold, others[i],
@@ -452,11 +454,13 @@ def doubts(
     ]
 
 
-def evaluation_doubt(model, records: Sequence, y_true, y_pred, proba) -> dict[str, Any]:
+def evaluation_doubt(
+    model, records: Sequence, y_true, y_pred, proba, features: np.ndarray | None = None
+) -> dict[str, Any]:
     """``evaluate``'s ``ambiguous`` block: ``{"margin", "cross_check", "flagged",
     "right_flagged", "wrong_flagged"}``, the model's threshold, its second opinion, and the
     share of all, right and wrong answers flagged (docs/json.md)."""
-    found = doubts(model, records, y_pred, proba)
+    found = doubts(model, records, y_pred, proba, features=features)
     flags = np.array([d["ambiguous"] is not None or d["unknown"] for d in found], dtype=bool)
     unknown = np.array([d["unknown"] for d in found], dtype=bool)
     truth = np.asarray(y_true).astype(str)

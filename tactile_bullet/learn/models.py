@@ -118,11 +118,14 @@ class Model:
         """(n, n_classes) probabilities; columns follow ``classes``."""
         return np.asarray(self.estimator.predict_proba(self.features(records)), dtype=float)
 
-    def predict_with_proba(self, records: Sequence) -> tuple[np.ndarray, np.ndarray | None]:
+    def predict_with_proba(
+        self, records: Sequence, x: np.ndarray | None = None
+    ) -> tuple[np.ndarray, np.ndarray | None]:
         """Predicted names and probabilities (None where the estimator gives none) from one
         pass of the descriptor: the estimator's own decision is kept, since it can differ
-        from the probability argmax (SVC with Platt scaling)."""
-        x = self.features(records)
+        from the probability argmax (SVC with Platt scaling). ``x``: the records' features
+        where the caller computed them already (the answer's doubt reads them too)."""
+        x = self.features(records) if x is None else np.asarray(x, dtype=float)
         names = np.asarray(self.estimator.predict(x)).astype(str)
         try:
             proba = np.asarray(self.estimator.predict_proba(x), dtype=float)

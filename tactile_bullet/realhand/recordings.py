@@ -257,7 +257,7 @@ def identify_grasps(model, grasps: Sequence[RecordedGrasp]) -> list[dict]:
         proba = np.array([[float(c == s) for c in classes] for s in shapes])
     from ..learn.doubt import doubts
 
-    found = doubts(model, records, shapes, proba)
+    found = doubts(model, records, shapes, proba, features=features)
     out = []
     for g, shape, row, doubt in zip(grasps, shapes, proba, found, strict=True):
         out.append(

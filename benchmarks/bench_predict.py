@@ -13,7 +13,10 @@ numpy, so its row does not pay for a torch import.
 CLI overhead of one grasp: ``tactile-bullet grasp --shape S --json`` in a fresh process (wall,
 median) minus ``simulate_grasp`` of the same grasp in a warm process (median): imports, plugin
 loading, the shape fit's set-up (read from its disk cache once one run has written it) and the
-answer. The first fresh run warms the cache and is reported apart. Target <= 1.5 s. CPU
+answer. The first fresh run warms the cache and is reported apart. Target <= 1.0 s (issue 30).
+The built-in shapes' collision pieces are read from their disk cache once a size was grasped;
+the ``sphere, new size`` row grasps a radius no run has cached (trimesh is imported to build
+it), so both cases are shown. CPU
 seconds (user + system, of the child process and of the in-process grasp) are reported beside
 wall seconds: on a shared machine they are the figure that does not move with the load.
 
@@ -37,7 +40,7 @@ from _report import provenance  # first: this checkout ahead of an installed cop
 
 LATENCY_TARGET_MS = 5.0
 START_TARGET_S = 1.0
-OVERHEAD_TARGET_S = 1.5
+OVERHEAD_TARGET_S = 1.0
 OVERHEAD_SHAPES = ("cylinder", "sphere", "torus")
 
 
@@ -65,24 +68,30 @@ def cli_grasp_overhead(runs: int) -> None:
     print(f"{'shape':<10}{'CLI s':>8}{'in-process s':>14}{'overhead s':>12}"
           f"{'CPU: CLI s':>12}{'in-process s':>14}{'overhead s':>12}  "
           f"target <= {OVERHEAD_TARGET_S:g} s")  # fmt: skip
-    for shape in OVERHEAD_SHAPES:
+    rows = [(shape, shape, False) for shape in OVERHEAD_SHAPES]
+    rows.append(("sphere, new size", "sphere", True))
+    for label, shape, new_size in rows:
         cli, sim, cli_cpu, sim_cpu = [], [], [], []
         simulate_grasp(shape)  # warm the process: imports, URDF, the shape's mesh
         for _ in range(runs):
+            params, extra = {}, []
+            if new_size:  # a radius in [40, 50) mm to the micrometre: never cached before
+                params = {"radius": 0.04 + (time.time_ns() // 1000 % 10000) * 1e-6}
+                extra = ["--param", f"radius={params['radius']!r}"]
             before = resource.getrusage(resource.RUSAGE_CHILDREN)
             start = time.perf_counter()
-            subprocess.run([*cmd, shape], check=True, capture_output=True)
+            subprocess.run([*cmd, shape, *extra], check=True, capture_output=True)
             cli.append(time.perf_counter() - start)
             after = resource.getrusage(resource.RUSAGE_CHILDREN)
             cli_cpu.append(after.ru_utime + after.ru_stime - before.ru_utime - before.ru_stime)
             start, start_cpu = time.perf_counter(), time.process_time()
-            simulate_grasp(shape)
+            simulate_grasp(shape, params)
             sim.append(time.perf_counter() - start)
             sim_cpu.append(time.process_time() - start_cpu)
         c, g = statistics.median(cli), statistics.median(sim)
         cc, gc = statistics.median(cli_cpu), statistics.median(sim_cpu)
         verdict = "ok" if c - g <= OVERHEAD_TARGET_S else "OVER"
-        print(f"{shape:<10}{c:>8.2f}{g:>14.2f}{c - g:>12.2f}"
+        print(f"{label:<10}{c:>8.2f}{g:>14.2f}{c - g:>12.2f}"
               f"{cc:>12.2f}{gc:>14.2f}{cc - gc:>12.2f}  {verdict}")  # fmt: skip
 
 

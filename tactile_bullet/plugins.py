@@ -457,6 +457,21 @@ def _fresh_estimator(name: str):
         ) from None
 
 
+def fitted_form(name: str) -> type | None:
+    """The class a saved model of classifier ``name`` loads as, where its factory names one
+    (``factory.fitted_form``: a callable returning a class with ``from_state``): a light,
+    predict-only form that spares loading the estimator's own imports (a saved knn predicts
+    without scikit-learn). None where the factory names none: the model loads as the
+    estimator itself."""
+    form = getattr(_lookup("classifiers", name).value, "fitted_form", None)
+    if not callable(form):
+        return None
+    kind = form()
+    if not isinstance(kind, type) or not callable(getattr(kind, "from_state", None)):
+        raise UsageError(f"classifier {name!r}'s fitted_form is not a class with from_state")
+    return kind
+
+
 def get_classifier(name: str, **params):
     """A fresh, unfitted estimator; ``params`` go through ``set_params`` (nested ``a__b`` too)."""
     estimator = _fresh_estimator(name)

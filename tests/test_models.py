@@ -43,7 +43,8 @@ def test_saved_model_predicts_exactly_what_it_did(classifier, synthetic_split, t
     model = workflow.train(train, _descriptor_for(classifier), classifier)
     path = save_model(tmp_path / "model.npz", model)
     loaded = load_model(path)
-    assert type(loaded.estimator) is type(model.estimator)
+    light = plugins.fitted_form(classifier)  # a predict-only form, where one is declared
+    assert type(loaded.estimator) is (light or type(model.estimator))
     assert loaded.classes == model.classes
     assert (loaded.descriptor, loaded.classifier) == (model.descriptor, classifier)
     np.testing.assert_array_equal(loaded.predict_records(test), model.predict_records(test))

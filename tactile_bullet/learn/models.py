@@ -13,6 +13,10 @@ one of two ways:
   ``SKLEARN_DATA_TYPES``, and the names in the class's ``trusted_types`` attribute). A file
   holding any other type is refused.
 
+A classifier's factory may name a ``fitted_form`` (``factory.fitted_form``, a callable returning
+a class with ``from_state``): a state-encoded file of it then loads as that predict-only class,
+sparing the estimator's own imports (a saved knn predicts in numpy without scikit-learn).
+
 For plugin authors: a classifier whose state skops cannot represent (a torch module, a C
 handle) implements ``to_state() -> (dict of JSON values, dict of numeric numpy arrays)`` and a
 classmethod ``from_state(state, arrays) -> fitted estimator``; one that skops can store but that
@@ -290,21 +294,25 @@ def load_model(path: str | Path) -> Model:
         plugins.get_descriptor(descriptor, **descriptor_params)
     except UsageError as exc:
         raise UsageError(f"{path} needs descriptor {descriptor!r}: {exc}") from None
+    encoding = meta.get("estimator_encoding")
     try:
-        template = plugins.get_classifier(classifier, **classifier_params)
+        light = plugins.fitted_form(classifier) if encoding == "state" else None
+        template = None if light else plugins.get_classifier(classifier, **classifier_params)
     except UsageError as exc:
         raise UsageError(f"{path} needs classifier {classifier!r}: {exc}") from None
-    encoding = meta.get("estimator_encoding")
-    if encoding == "state":
-        estimator = _load_state(path, contents, template)
+    if light is not None:
+        estimator = _load_state(path, contents, light)
+        _check_params(path, classifier, classifier_params, estimator)
+    elif encoding == "state":
+        estimator = _load_state(path, contents, type(template))
     elif encoding == "skops":
         estimator = _load_skops(path, contents, template)
     else:
         raise UsageError(f"{path} is not a valid model: unknown estimator encoding {encoding!r}")
-    if type(estimator) is not type(template):
+    if type(estimator) is not (light or type(template)):
         raise UsageError(
             f"{path} holds a {_qualname(type(estimator))}, not the {classifier!r} classifier "
-            f"({_qualname(type(template))}) it names"
+            f"({_qualname(light or type(template))}) it names"
         )
     classes = [str(c) for c in getattr(estimator, "classes_", [])]
     if classes != [str(c) for c in meta.get("classes", [])]:
@@ -371,8 +379,19 @@ def _load_novelty(path: Path, meta: dict, contents: dict[str, np.ndarray]):
         raise UsageError(f"{path} is not a valid model: {exc}") from None
 
 
-def _load_state(path: Path, contents: dict[str, np.ndarray], template: Any) -> Any:
-    kind = type(template)
+def _check_params(path: Path, classifier: str, params: dict, estimator: Any) -> None:
+    """The metadata's classifier parameters against those of the state (a light form is
+    loaded without the estimator that would have checked them)."""
+    own = estimator.get_params()
+    for key, value in params.items():
+        if key not in own or own[key] != value:
+            raise UsageError(
+                f"{path} is not a valid model: classifier {classifier!r} parameter {key}="
+                f"{value!r} does not match its saved state"
+            )
+
+
+def _load_state(path: Path, contents: dict[str, np.ndarray], kind: type) -> Any:
     if not callable(getattr(kind, "from_state", None)):
         raise UsageError(f"{path}: classifier {_qualname(kind)} cannot restore a saved state")
     try:

@@ -26,6 +26,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from ..errors import UsageError
+from .piece_cache import cached
 
 if TYPE_CHECKING:
     import trimesh
@@ -306,7 +307,7 @@ BUILTIN_SHAPES: tuple[Shape, ...] = (
             "radius": Param(0.05, 0.03, 0.07, doc="base radius"),
             "length": Param(0.16, 0.12, 0.22, doc="base to apex"),
         },
-        cone_radius, cone, _single(cone),
+        cone_radius, cone, cached("cone", _single(cone)),
         doc="right circular cone, base toward the little finger",
         extent=lambda length, **_: length / 2,
     ),
@@ -316,14 +317,14 @@ BUILTIN_SHAPES: tuple[Shape, ...] = (
             "major_radius": Param(0.048, 0.044, 0.07, doc="axis to tube centre"),
             "minor_radius": Param(0.042, 0.038, 0.055, doc="tube radius"),
         },
-        torus_radius, torus, torus_pieces,
+        torus_radius, torus, cached("torus", torus_pieces),
         doc="torus around O-O', hole kept open in collision",
         extent=lambda minor_radius, **_: minor_radius,
     ),
     Shape(
         "sphere",
         {"radius": Param(0.045, 0.035, 0.07)},
-        sphere_radius, sphere, _single(sphere),
+        sphere_radius, sphere, cached("sphere", _single(sphere)),
         doc="sphere",
         extent=lambda radius, **_: radius,
     ),
@@ -334,7 +335,7 @@ BUILTIN_SHAPES: tuple[Shape, ...] = (
             "end_radius": Param(0.045, 0.035, 0.06, doc="radius at the flat ends"),
             "length": Param(0.12, 0.1, 0.16),
         },
-        hyperboloid_radius, hyperboloid, hyperboloid_pieces,
+        hyperboloid_radius, hyperboloid, cached("hyperboloid", hyperboloid_pieces),
         doc="one-sheet hyperboloid of revolution, waist kept concave in collision",
         extent=lambda length, **_: length / 2,
     ),
@@ -344,7 +345,7 @@ BUILTIN_SHAPES: tuple[Shape, ...] = (
             "radius": Param(0.035, 0.02, 0.055),
             "length": Param(0.12, 0.1, 0.18),
         },
-        cylinder_radius, cylinder, _single(cylinder),
+        cylinder_radius, cylinder, cached("cylinder", _single(cylinder)),
         doc="cylinder",
         extent=lambda length, **_: length / 2,
     ),
@@ -355,7 +356,7 @@ BUILTIN_SHAPES: tuple[Shape, ...] = (
             "length": Param(0.13, 0.1, 0.18),
             "asymmetry": Param(0.25, 0.0, 0.4, unit="1", doc="egg skew k"),
         },
-        ovoid_radius, ovoid, _single(ovoid),
+        ovoid_radius, ovoid, cached("ovoid", _single(ovoid)),
         doc="egg (modified shape)", thesis=False,
         extent=lambda length, **_: length / 2,
     ),
@@ -365,7 +366,8 @@ BUILTIN_SHAPES: tuple[Shape, ...] = (
             "radius": Param(0.05, 0.03, 0.07, doc="base circumradius"),
             "length": Param(0.16, 0.12, 0.22, doc="base to apex"),
         },
-        hexagonal_pyramid_radius, hexagonal_pyramid, _single(hexagonal_pyramid),
+        hexagonal_pyramid_radius, hexagonal_pyramid,
+        cached("hexagonal_pyramid", _single(hexagonal_pyramid)),
         doc="hexagonal pyramid (modified shape)", thesis=False,
         extent=lambda length, **_: length / 2,
     ),

@@ -28,11 +28,10 @@ from ..objects.shapes import Shape
 from ..records import Pose
 
 
-def _is_trimesh(piece) -> bool:
-    """Whether a shape's piece is a trimesh, without importing trimesh (~0.7 s of a
-    command-line grasp): a Trimesh exists only once its module was imported."""
-    module = sys.modules.get("trimesh")
-    return module is not None and isinstance(piece, module.Trimesh)
+def _is_surface(piece) -> bool:
+    """Whether a shape's piece is an exact triangle surface (a trimesh or a cached
+    ``Surface``: it has faces) rather than the points of a convex hull."""
+    return hasattr(piece, "faces")
 
 
 FOREARM_TO_PALM = np.array([0.0, -0.010, 0.247])
@@ -292,7 +291,7 @@ class Scene:
         p = import_pybullet()
         bodies = []
         for piece in self.shape.pieces(**self.params):
-            if _is_trimesh(piece):  # exact concave surface (static only)
+            if _is_surface(piece):  # exact concave surface (static only)
                 col = c.createCollisionShape(
                     p.GEOM_MESH,
                     vertices=np.asarray(piece.vertices).tolist(),

@@ -23,6 +23,16 @@ def knn(**params):
     return KNNClassifier(**params)
 
 
+def _knn_vote() -> type:
+    from ..neighbours import NeighbourVote
+
+    return NeighbourVote
+
+
+knn.fitted_form = _knn_vote
+"""A saved knn loads as a NeighbourVote: predicting needs no scikit-learn (plugins.fitted_form)."""
+
+
 def som(**params):
     from .som import SOMClassifier
 

@@ -60,7 +60,11 @@ def object_geoms(shape, params: Mapping[str, float]) -> list[Geom]:
     for piece in shape.pieces(**params):
         if isinstance(piece, np.ndarray):
             out.append(Geom("mesh", vertices=np.asarray(piece, float)))
-        else:  # a concave triangle mesh
+        else:  # a concave triangle mesh (a cached Surface is made a trimesh to be cut)
+            if not hasattr(piece, "bounds"):
+                import trimesh
+
+                piece = trimesh.Trimesh(piece.vertices, piece.faces, process=False)
             out += [Geom("mesh", vertices=v) for v in mesh_cells(piece, *MESH_CELLS)]
     return out
 

@@ -1,0 +1,138 @@
+"""A command-line grasp answers without scikit-learn and (for a size grasped before) without
+trimesh: those imports were over half of its time beyond the simulation (issue 30). The
+promise is checked as what a fresh process imports, never as a time."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+from tactile_bullet import plugins
+from tactile_bullet.errors import UsageError
+from tactile_bullet.learn.models import load_model, save_model
+from tactile_bullet.learn.neighbours import NeighbourVote
+from tactile_bullet.objects import piece_cache
+from tactile_bullet.objects.shapes import BUILTIN_SHAPES
+
+
+def _fresh(code: str, env: dict | None = None) -> str:
+    import os
+
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                          env={**os.environ, **(env or {})}, timeout=300)  # fmt: skip
+    assert done.returncode == 0, done.stderr
+    return done.stdout
+
+
+def test_the_default_model_loads_and_answers_without_scikit_learn():
+    out = _fresh(
+        "import sys, numpy as np\n"
+        "from tactile_bullet.learn.default import default_model\n"
+        "m = default_model()\n"
+        "p = m.estimator.predict_proba(np.zeros((1, m.estimator.n_features_in_)))\n"
+        "print(type(m.estimator).__name__, 'sklearn' in sys.modules, round(p.sum(), 9))\n"
+    )
+    assert out.split() == ["NeighbourVote", "False", "1.0"]
+
+
+def test_a_loaded_knn_answers_exactly_as_the_fitted_one(tmp_path):
+    rng = np.random.default_rng(3)
+    x = rng.normal(size=(60, 7))
+    y = np.repeat(["cone", "sphere", "torus"], 20)
+    x[y == "sphere"] += 1.5
+    for params in ({}, {"n_neighbors": 3, "weights": "uniform"}, {"n_neighbors": 100}):
+        est = plugins.get_classifier("knn", **params).fit(x, y)
+        vote = NeighbourVote.from_state(*est.to_state())
+        queries = np.vstack([rng.normal(size=(25, 7)), x[:5]])  # x[:5]: exact matches
+        assert np.array_equal(vote.predict_proba(queries), est.predict_proba(queries))
+        assert np.array_equal(vote.predict(queries), est.predict(queries))
+
+
+def test_a_knn_file_whose_parameters_disagree_with_its_state_is_refused(tmp_path):
+    from tactile_bullet.learn.models import Model
+
+    rng = np.random.default_rng(0)
+    x, y = rng.normal(size=(20, 4)), np.repeat(["cone", "torus"], 10)
+    est = plugins.get_classifier("knn", n_neighbors=3).fit(x, y)
+    path = save_model(tmp_path / "m.npz", Model("raw-joints", {}, "knn", {"n_neighbors": 7}, est))
+    with pytest.raises(UsageError, match="n_neighbors=7 does not match its saved state"):
+        load_model(path)
+
+
+def test_a_damaged_knn_state_is_one_line_error(tmp_path):
+    rng = np.random.default_rng(0)
+    est = plugins.get_classifier("knn").fit(rng.normal(size=(20, 4)), np.repeat(["a", "b"], 10))
+    state, arrays = est.to_state()
+    with pytest.raises(ValueError, match="non-numbers"):
+        NeighbourVote.from_state(state, {**arrays, "mean": np.full(4, np.nan)})
+    with pytest.raises(ValueError, match="labels do not match"):
+        NeighbourVote.from_state(state, {**arrays, "y_index": arrays["y_index"] + 5})
+    with pytest.raises(ValueError, match="n_neighbors"):
+        NeighbourVote.from_state({**state, "params": {"n_neighbors": 0, "weights": "uniform"}},
+                                 arrays)  # fmt: skip
+
+
+@pytest.fixture
+def cache_home(tmp_path, monkeypatch):
+    monkeypatch.setenv("TACTILE_BULLET_CACHE", str(tmp_path / "cache"))
+    return tmp_path / "cache"
+
+
+@pytest.mark.parametrize("name", [s.name for s in BUILTIN_SHAPES])
+def test_cached_pieces_are_the_built_ones(name, cache_home):
+    shape = next(s for s in BUILTIN_SHAPES if s.name == name)
+    params = shape.resolve({})
+    built = shape.pieces.__wrapped__(**params)
+    first, second = shape.pieces(**params), shape.pieces(**params)
+    assert len(first) == len(second) == len(built)
+    for b, a, c in zip(built, first, second, strict=True):
+        assert np.array_equal(
+            np.asarray(getattr(b, "vertices", b)), np.asarray(getattr(a, "vertices", a))
+        )
+        assert np.array_equal(
+            np.asarray(getattr(a, "vertices", a)), np.asarray(getattr(c, "vertices", c))
+        )
+        assert hasattr(b, "faces") == hasattr(a, "faces") == hasattr(c, "faces")
+        if hasattr(b, "faces"):
+            assert np.array_equal(np.asarray(b.faces), c.faces)
+    assert len(list((cache_home / "pieces").glob(f"{name}-*.npz"))) == 1
+
+
+def test_each_size_has_its_own_entry_and_a_damaged_entry_is_built_again(cache_home):
+    shape = next(s for s in BUILTIN_SHAPES if s.name == "sphere")
+    small, large = shape.pieces(radius=0.04), shape.pieces(radius=0.05)
+    assert np.abs(small[0]).max() < np.abs(large[0]).max()
+    path = piece_cache.entry_path("sphere", {"radius": 0.04})
+    data = bytearray(path.read_bytes())
+    data[-200] ^= 0xFF  # flip a byte inside the stored arrays
+    path.write_bytes(bytes(data))
+    assert piece_cache.read_entry(path) is None
+    again = shape.pieces(radius=0.04)
+    assert np.array_equal(again[0], small[0])
+    assert piece_cache.read_entry(path) is not None  # rewritten sound
+
+
+def test_a_grasp_of_a_size_grasped_before_imports_neither_trimesh_nor_scikit_learn(cache_home):
+    import os
+
+    code = (
+        "import atexit, runpy, sys\n"
+        "atexit.register(lambda: sys.stderr.write('\\nIMPORTED %d %d\\n' % (\n"
+        "    'trimesh' in sys.modules, 'sklearn' in sys.modules)))\n"
+        "sys.argv = ['tactile-bullet', 'grasp', '--shape', 'torus', '--json']\n"
+        "runpy.run_module('tactile_bullet.cli', run_name='__main__')\n"
+    )
+    env = {**os.environ, "TACTILE_BULLET_CACHE": str(cache_home)}
+    runs = []
+    for _ in range(2):
+        done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                              env=env, timeout=300)  # fmt: skip
+        assert done.returncode == 0, done.stderr
+        flags = done.stderr.rsplit("IMPORTED", 1)[1].split()
+        runs.append((json.loads(done.stdout)["answer"]["shape"], flags))
+    assert runs[0] == ("torus", ["1", "0"])  # built the pieces with trimesh
+    assert runs[1] == ("torus", ["0", "0"])  # read them back

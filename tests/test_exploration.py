@@ -171,6 +171,49 @@ def test_object_marks_that_disagree_with_the_grasps_are_refused(synthetic_split,
     assert "spans rows of objects a, b" in err
 
 
+def _bag_with_objects(records, path, monkeypatch, start_object, end_object):
+    """Export ``records`` as a ROS 2 bag whose grasp markers name an object: grasp k's start
+    marker names ``start_object(k)``, its end marker ``end_object(k)``."""
+    pytest.importorskip("rosbags")
+    from tactile_bullet.realhand import export as export_module
+
+    def marker(k, rec, event):
+        obj = start_object(k) if event == "start" else end_object(k)
+        return json.dumps({"event": event, "shape": rec.shape, "object": obj})
+
+    monkeypatch.setattr(export_module, "_marker", marker)
+    export_module.export(records, path, "db3")
+    return path
+
+
+def test_identify_recording_fuses_the_grasps_a_bag_marks_as_one_object(
+    synthetic_split, tmp_path, capsys, monkeypatch
+):
+    from tactile_bullet.cli import main
+
+    _, test = synthetic_split
+    records = [r for r in test if r.shape == test[0].shape][:2] + \
+        [r for r in test if r.shape != test[0].shape][:1]  # fmt: skip
+    name = lambda k: "mug" if k < 2 else "other"  # noqa: E731
+    path = _bag_with_objects(records, tmp_path / "session", monkeypatch, name, name)
+    assert main(["identify", "--recording", str(path), "--json"]) == 0
+    doc = json.loads(capsys.readouterr().out)
+    assert [g["object"] for g in doc["grasps"]] == ["mug", "mug", "other"]
+    objects = {o["object"]: o for o in doc["objects"]}
+    assert objects["mug"]["grasps"] == [0, 1] and objects["other"]["grasps"] == [2]
+    assert math.isclose(sum(objects["mug"]["posterior"].values()), 1.0)
+
+
+def test_a_bag_grasp_whose_markers_name_two_objects_is_refused(
+    synthetic_split, tmp_path, capsys, monkeypatch
+):
+    _, test = synthetic_split
+    path = _bag_with_objects(test[:2], tmp_path / "session", monkeypatch,
+                             lambda k: "a", lambda k: "a" if k == 0 else "b")  # fmt: skip
+    err = run_error(capsys, ["identify", "--recording", str(path)])
+    assert "starts on object 'a' and ends on 'b'" in err
+
+
 @pytest.mark.parametrize(
     "args, message",
     [

@@ -186,58 +186,93 @@ def read_bag(
     _check_finite(angles, where, "joint positions")
     _check_finite(efforts, where, "efforts")
     origin = int(recv_ns[0])
-    windows = None
+    receive_s = (recv_ns - origin) / 1e9
+    windows, objects = None, []
     if marker_topic is not None:
-        windows = _windows(events, origin, where)
+        windows, marks = _windows(events, origin, where)
+        objects = _row_objects(receive_s, windows, marks)
     any_map = next(iter(maps.values()))
     return JointSamples(
         source=where,
         time=time,
-        receive=(recv_ns - origin) / 1e9,
+        receive=receive_s,
         angles=angles,
         efforts=efforts,
         has_efforts=has_eff,
         windows=windows,
+        objects=objects,
         coupled=any(m.coupled for m in maps.values()),
         prefix=any_map.prefix,
     )
 
 
-def _marker_event(msg, msgtype: str, where: str) -> tuple[str, str | None]:
-    """('start'|'end', label) from one marker message."""
+def _marker_event(msg, msgtype: str, where: str) -> tuple[str, str | None, str | None]:
+    """('start'|'end', shape label, object mark) from one marker message. A JSON marker may
+    name the object the grasp is made on (``"object"``): grasps of one object are fused."""
     if msgtype == "std_msgs/msg/Bool":
-        return ("start" if msg.data else "end", None)
+        return ("start" if msg.data else "end", None, None)
     if msgtype != "std_msgs/msg/String":
         raise UsageError(f"{where}: marker topic carries {msgtype}; use std_msgs String or Bool")
     text = str(msg.data).strip()
-    label = None
+    label = obj = None
     if text.startswith("{"):
         try:
             doc = json.loads(text)
-            text, label = str(doc["event"]), doc.get("shape")
-        except (ValueError, KeyError, TypeError):
+            text, label, obj = str(doc["event"]), doc.get("shape"), doc.get("object")
+        except (ValueError, KeyError, TypeError, AttributeError):
             raise UsageError(f"{where}: unreadable marker message {text[:40]!r}") from None
     event = text.lower()
     if event not in ("start", "end"):
         raise UsageError(f"{where}: marker message {text[:40]!r} is neither 'start' nor 'end'")
-    return event, (str(label) if label is not None else None)
+    return event, (str(label) if label is not None else None), (
+        str(obj) if obj not in (None, "") else None
+    )
 
 
-def _windows(events, origin_ns: int, where: str) -> list[tuple[float, float, str | None]]:
-    """Pair start/end marker events into (start, end, label) windows (s from ``origin_ns``)."""
-    windows = []
-    open_at, label = None, None
-    for t_ns, (event, lab) in sorted(events, key=lambda e: e[0]):
+def _windows(
+    events, origin_ns: int, where: str
+) -> tuple[list[tuple[float, float, str | None]], list[str | None]]:
+    """Pair start/end marker events into (start, end, label) windows (s from ``origin_ns``),
+    with each window's object mark; a UsageError where a grasp's start and end name two
+    objects (its marks disagree)."""
+    windows, objects = [], []
+    open_at, label, obj = None, None, None
+    for t_ns, (event, lab, ob) in sorted(events, key=lambda e: e[0]):
         t = (int(t_ns) - origin_ns) / 1e9
         if event == "start":
             if open_at is not None:
                 windows.append((open_at, t, label))
-            open_at, label = t, lab
+                objects.append(obj)
+            open_at, label, obj = t, lab, ob
         elif open_at is None:
             raise UsageError(f"{where}: grasp marker 'end' at {t:.3f} s without a 'start'")
         else:
+            if obj is not None and ob is not None and ob != obj:
+                raise UsageError(
+                    f"{where}: the grasp marked from {open_at:.3f} s to {t:.3f} s starts on "
+                    f"object {obj!r} and ends on {ob!r}: its object marks disagree"
+                )
             windows.append((open_at, t, label or lab))
+            objects.append(obj or ob)
             open_at = None
     if open_at is not None:
         windows.append((open_at, math.inf, label))
-    return windows
+        objects.append(obj)
+    return windows, objects
+
+
+def _row_objects(
+    receive_s: np.ndarray, windows: list[tuple[float, float, str | None]], marks: list
+) -> list[str | None]:
+    """Per sample, the object mark of the window it falls in ([] where no window names one):
+    the table reader's ``object`` column, so both kinds of recording fuse alike."""
+    if not any(marks):
+        return []
+    rows: list[str | None] = [None] * len(receive_s)
+    for (start, end, _), mark in zip(windows, marks, strict=True):
+        if mark is None:
+            continue
+        inside = np.flatnonzero((receive_s >= start) & (receive_s <= end))
+        for i in inside:
+            rows[i] = mark
+    return rows

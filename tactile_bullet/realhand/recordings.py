@@ -31,7 +31,8 @@ welded at 0); every other joint must be there: a missing or unknown joint is an 
 Grasps in one recording are cut:
 
 1. by a marker the user names: a topic (``std_msgs/String`` holding ``start`` / ``end`` or a
-   JSON object ``{"event": "start"|"end", "shape": label}``, or ``std_msgs/Bool``, true while
+   JSON object ``{"event": "start"|"end", "shape": label, "object": mark}``, or
+   ``std_msgs/Bool``, true while
    grasping) or a table column (equal non-zero values mark the rows of one grasp). Marker times
    are bag receive times, so joint states are matched to them by their receive times too;
 2. otherwise by silence between closures (:class:`GraspSegmenter`): a gap over ``gap_s``

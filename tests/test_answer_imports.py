@@ -136,3 +136,25 @@ def test_a_grasp_of_a_size_grasped_before_imports_neither_trimesh_nor_scikit_lea
         runs.append((json.loads(done.stdout)["answer"]["shape"], flags))
     assert runs[0] == ("torus", ["1", "0"])  # built the pieces with trimesh
     assert runs[1] == ("torus", ["0", "0"])  # read them back
+
+
+def test_a_shape_fit_model_saves_without_skops_and_refuses_a_damaged_state(tmp_path):
+    from tactile_bullet.learn.classifiers.shape_fit import ShapeFitClassifier
+    from tactile_bullet.learn.descriptors import raw_joint_names
+    from tactile_bullet.learn.models import Model
+
+    n = len(raw_joint_names(False))
+    est = plugins.get_classifier("shape-fit").fit(np.zeros((4, n)), ["cone", "torus"] * 2)
+    path = save_model(tmp_path / "m.npz", Model("raw-joints", {}, "shape-fit", {}, est))
+    with np.load(path) as data:
+        assert "estimator_skops" not in data.files
+    loaded = load_model(path).estimator
+    assert type(loaded) is ShapeFitClassifier and list(loaded.classes_) == ["cone", "torus"]
+    state, arrays = est.to_state()
+    for bad_state, bad_arrays, message in [
+        ({**state, "params": {"temperature": -1.0}}, arrays, "temperature"),
+        ({**state, "n_features_in": 5}, arrays, "columns"),
+        (state, {"classes": np.array(["cone", "teapot"])}, "teapot"),
+    ]:
+        with pytest.raises(ValueError, match=message):
+            ShapeFitClassifier.from_state(bad_state, bad_arrays)

@@ -5,10 +5,12 @@ from __future__ import annotations
 import io
 import json
 import pickle
+import re
 import zipfile
 
 import numpy as np
 import pytest
+import sklearn
 
 from tactile_bullet import __version__, plugins
 from tactile_bullet.errors import UsageError
@@ -87,12 +89,12 @@ def test_predictions_are_shape_names_with_one_probability_per_class(svm_model, s
 # --- files that must be refused --------------------------------------------------------------
 
 
-def _rewrite(path, tmp_path, change):
+def _rewrite(path, tmp_path, change, name="tampered.npz"):
     """Copy a model file with its members changed by ``change(dict of arrays)``."""
     with np.load(path, allow_pickle=False) as data:
         members = {k: data[k] for k in data.files}
     change(members)
-    out = tmp_path / "tampered.npz"
+    out = tmp_path / name
     with open(out, "wb") as fh:
         np.savez(fh, **members)
     return out
@@ -104,9 +106,30 @@ def _set_meta(members, **updates):
     members["meta"] = np.array(json.dumps(meta))
 
 
+def _as_skops(path, tmp_path, estimator):
+    """The model file at ``path`` with its estimator written by skops: an svm model file as
+    written before the svm saved its own state, and as other classifiers' files still are."""
+    import skops.io as sio
+
+    def to_skops(members):
+        for name in [n for n in members if n == "estimator_state" or n.startswith("state.")]:
+            del members[name]
+        members["estimator_skops"] = np.frombuffer(sio.dumps(estimator), dtype=np.uint8)
+        _set_meta(members, estimator_encoding="skops")
+
+    return _rewrite(path, tmp_path, to_skops, name="skops.npz")
+
+
+@pytest.fixture(scope="module")
+def svm_file(svm_model, tmp_path_factory):
+    return save_model(tmp_path_factory.mktemp("svm") / "svm.npz", svm_model)
+
+
 @pytest.fixture
-def saved(svm_model, tmp_path):
-    return save_model(tmp_path / "model.npz", svm_model)
+def saved(svm_file, svm_model, tmp_path):
+    """An old svm model file, its estimator written by skops: the refusals below are those of
+    every skops-encoded file."""
+    return _as_skops(svm_file, tmp_path, svm_model.estimator)
 
 
 class Payload:
@@ -290,3 +313,148 @@ def test_a_model_with_damaged_known_grasps_is_refused(saved_with_known, tmp_path
     assert load_model(saved_with_known).known is not None
     with pytest.raises(UsageError, match=message):
         load_model(_rewrite(saved_with_known, tmp_path, damage))
+
+
+# --- the svm saves its own state (no skops) --------------------------------------------------
+
+
+@pytest.fixture(scope="module")
+def two_shape_svm(synthetic_split):
+    """An svm of two shapes (one Platt sigmoid, one decision value per grasp)."""
+    train = [r for r in synthetic_split[0] if r.shape in ("cone", "sphere")]
+    return workflow.train(train, "signature", "svm", doubt=False)
+
+
+@pytest.mark.parametrize("which", ["two_shape_svm", "svm_model"])
+def test_an_svm_file_holds_its_state_and_predicts_bitwise_the_same(
+    which, request, synthetic_split, tmp_path
+):
+    model = request.getfixturevalue(which)
+    path = save_model(tmp_path / "m.npz", model)
+    with np.load(path, allow_pickle=False) as data:
+        assert "estimator_skops" not in data.files and "estimator_state" in data.files
+    loaded = load_model(path)
+    x = model.features(synthetic_split[1])  # held out
+    assert np.array_equal(loaded.estimator.predict_proba(x), model.estimator.predict_proba(x))
+    assert np.array_equal(loaded.estimator.predict(x), model.estimator.predict(x))
+    assert loaded.estimator.get_params() == model.estimator.get_params()
+
+
+def test_loading_an_svm_file_does_not_import_skops(svm_file, svm_model, synthetic_split, tmp_path):
+    """skops's import (~2 s) was most of an svm model's ``evaluate``."""
+    import subprocess
+    import sys
+
+    x = svm_model.features(synthetic_split[1])
+    np.save(tmp_path / "x.npy", x)
+    code = (
+        "import sys, numpy as np\n"
+        "from tactile_bullet.learn.models import load_model\n"
+        f"m = load_model({str(svm_file)!r})\n"
+        f"np.save({str(tmp_path / 'p.npy')!r}, m.estimator.predict_proba(np.load("
+        f"{str(tmp_path / 'x.npy')!r})))\n"
+        "assert 'skops' not in sys.modules, 'skops was imported'\n"
+    )
+    subprocess.run([sys.executable, "-c", code], check=True)
+    assert np.array_equal(np.load(tmp_path / "p.npy"), svm_model.estimator.predict_proba(x))
+
+
+def test_an_old_svm_file_written_by_skops_still_loads(saved, svm_model, synthetic_split):
+    with np.load(saved, allow_pickle=False) as data:
+        assert "estimator_skops" in data.files and "estimator_state" not in data.files
+    loaded = load_model(saved)
+    test = synthetic_split[1]
+    np.testing.assert_array_equal(
+        loaded.predict_proba_records(test), svm_model.predict_proba_records(test)
+    )
+
+
+def _svc_state(**updates):
+    """A change to the saved SVC's JSON attributes."""
+
+    def change(members):
+        state = json.loads(str(members["estimator_state"]))
+        state["svc"].update(updates)
+        members["estimator_state"] = np.array(json.dumps(state))
+
+    return change
+
+
+def _array(name, change):
+    return lambda m: m.update({f"state.{name}": change(m[f"state.{name}"].copy())})
+
+
+def _set(index, value):
+    def change(a):
+        a[index] = value
+        return a
+
+    return change
+
+
+@pytest.mark.parametrize("damage, message", [
+    (_array("svc.dual_coef_", lambda a: a[:, :-1]), "dual_coef_ has shape"),
+    (_array("svc.intercept_", lambda a: a[:-1]), "intercept_ has shape"),
+    (_array("platt", lambda a: a[:-1]), "platt is float64"),
+    (_array("mean", lambda a: a[:-1]), "mean is float64"),
+    (_array("svc.support_vectors_", _set((0, 0), np.nan)), "support_vectors_ holds non-numbers"),
+    (_array("svc._intercept_", _set(0, np.inf)), "_intercept_ holds non-numbers"),
+    (_array("mean", _set(0, np.nan)), "mean holds non-numbers"),
+    (_array("scale", _set(0, 0.0)), "scale is not positive"),
+    (_svc_state(_gamma=float("nan")), "_gamma is not finite"),
+    (lambda m: m.update({"state.svc.hook_": np.zeros(3)}), "unknown or missing SVC .*hook_"),
+    (_svc_state(hook_="os.system"), "unknown or missing SVC attributes: hook_"),
+    (lambda m: m.pop("state.svc._probA"), "unknown or missing SVC attributes: _probA"),
+    (lambda m: m.update({"state.hook": np.zeros(3)}), "unknown svm arrays: hook"),
+    (_svc_state(_sklearn_version="1.8.0"),
+     f"made by scikit-learn 1.8.0, this is scikit-learn {sklearn.__version__}; retrain"),
+    (_array("svc.support_", lambda a: a.astype(np.int64)), "support_ is int64, not int32"),
+    (_array("scale", lambda a: a.astype(np.float32)), "scale is float32"),
+    (_array("classes", lambda a: a[:1]), "classes are not 2 or more"),
+    (_svc_state(_gamma="0.1"), "_gamma is a str"),
+    (_svc_state(shape_fit_=[10, 3]), "shape_fit_"),
+    (_svc_state(kernel="precomputed"), "settings"),
+    (_array("svc._n_support", _set(0, 10**6)), "_n_support does not count"),
+    (_array("svc._n_support", _set(0, -1)), "_n_support does not count"),
+    (_array("svc.support_", _set(0, 10**6)), "support_ indices lie outside"),
+    (_array("svc.classes_", lambda a: a[::-1].copy()), "classes_ are not the class indices"),
+    (lambda m: _set_meta(m, classifier={"name": "knn", "params": {}}), "n_neighbors"),
+])  # fmt: skip
+def test_a_damaged_svm_state_is_refused_in_one_line(svm_file, tmp_path, damage, message):
+    with pytest.raises(UsageError, match="cannot restore the estimator") as info:
+        load_model(_rewrite(svm_file, tmp_path, damage))
+    assert re.search(message, str(info.value)) and "\n" not in str(info.value)
+
+
+def test_an_svm_file_of_another_patch_release_loads(svm_file, svm_model, synthetic_split,
+                                                    tmp_path):
+    major, minor = sklearn.__version__.split(".")[:2]
+    path = _rewrite(svm_file, tmp_path, _svc_state(_sklearn_version=f"{major}.{minor}.99"))
+    loaded = load_model(path)
+    test = synthetic_split[1]
+    np.testing.assert_array_equal(
+        loaded.predict_proba_records(test), svm_model.predict_proba_records(test)
+    )
+
+
+def test_an_svm_of_a_value_no_model_file_holds_is_not_saved(tmp_path):
+    from tactile_bullet.learn.classifiers.svm import SVMClassifier
+
+    X = np.random.default_rng(0).normal(size=(12, 3))
+    est = SVMClassifier(class_weight={0: 1.0, 1: 2.0}).fit(X, ["cone", "torus"] * 6)
+    model = Model("signature", {}, "svm", {}, est)
+    with pytest.raises(UsageError, match="cannot save the 'svm' classifier: .*dict"):
+        save_model(tmp_path / "m.npz", model)
+    assert not (tmp_path / "m.npz").exists()
+
+
+def test_an_svc_of_another_layout_is_saved_through_skops(svm_model, monkeypatch, tmp_path):
+    """Another scikit-learn's SVC (here: one more attribute than 1.9's) is written by skops
+    rather than refused, and reads back."""
+    from tactile_bullet.learn.classifiers import svm
+
+    monkeypatch.setitem(svm.SVC_SCALARS, "new_attribute_", (int,))
+    path = save_model(tmp_path / "m.npz", svm_model)
+    with np.load(path, allow_pickle=False) as data:
+        assert "estimator_skops" in data.files and "estimator_state" not in data.files
+    assert isinstance(load_model(path).estimator, svm.SVMClassifier)

@@ -19,7 +19,8 @@ sparing the estimator's own imports (a saved knn predicts in numpy without sciki
 
 For plugin authors: a classifier whose state skops cannot represent (a torch module, a C
 handle) implements ``to_state() -> (dict of JSON values, dict of numeric numpy arrays)`` and a
-classmethod ``from_state(state, arrays) -> fitted estimator``; one that skops can store but that
+classmethod ``from_state(state, arrays) -> fitted estimator`` (``to_state`` may raise
+NotImplementedError to be written through skops instead); one that skops can store but that
 holds extra non-default types lists their qualified names in a class attribute
 ``trusted_types``.
 """
@@ -176,8 +177,9 @@ def save_model(path: str | Path, model: Model) -> Path:
         meta["novelty"] = state
         arrays |= {_NOVELTY_PREFIX + k: np.asarray(v, dtype=float)
                    for k, v in novelty_arrays.items()}  # fmt: skip
-    if isinstance(est, StatefulEstimator):
-        state, state_arrays = est.to_state()
+    saved_state = _state_of(est, model.classifier)
+    if saved_state is not None:
+        state, state_arrays = saved_state
         meta["estimator_encoding"] = "state"
         arrays["estimator_state"] = np.array(json.dumps(state, default=json_value))
         for name, value in state_arrays.items():
@@ -199,6 +201,20 @@ def save_model(path: str | Path, model: Model) -> Path:
     with atomic_path(path, "model") as tmp, open(tmp, "wb") as fh:
         np.savez_compressed(fh, meta=np.array(meta_text), **arrays)
     return path
+
+
+def _state_of(est: Any, classifier: str) -> tuple[dict, dict[str, np.ndarray]] | None:
+    """``est.to_state()``, or None for skops: an estimator without the protocol, or one whose
+    ``to_state`` raises NotImplementedError (a library layout it does not know, such as another
+    scikit-learn's). Its ValueError (a value it does not store) is a one-line UsageError."""
+    if not isinstance(est, StatefulEstimator):
+        return None
+    try:
+        return est.to_state()
+    except NotImplementedError:
+        return None
+    except ValueError as exc:
+        raise UsageError(f"cannot save the {classifier!r} classifier: {exc}") from None
 
 
 MODEL_MEMBER_LIMIT = 1 << 30

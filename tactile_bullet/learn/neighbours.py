@@ -127,9 +127,14 @@ class NeighbourVote:
     @classmethod
     def from_state(cls, state: dict, arrays: dict[str, np.ndarray]) -> NeighbourVote:
         """Rebuild from ``to_state``'s output, checking every shape (ValueError if damaged)."""
-        params = state["params"]
-        vote_ = cls(arrays["classes"], arrays["y_index"], arrays["mean"], arrays["scale"],
-                    arrays["train"], params["n_neighbors"], params["weights"])  # fmt: skip
+        params = state.get("params") if isinstance(state, dict) else None
+        if not isinstance(params, dict) or set(params) != {"n_neighbors", "weights"}:
+            raise ValueError("a knn state holds n_neighbors and weights, this one does not")
+        names = ("classes", "y_index", "mean", "scale", "train")
+        if set(arrays) != set(names):
+            raise ValueError(f"a knn state holds the arrays {', '.join(names)}, this one "
+                             f"{', '.join(sorted(arrays)) or 'none'}")  # fmt: skip
+        vote_ = cls(*(arrays[k] for k in names), params["n_neighbors"], params["weights"])
         if int(state["n_features_in"]) != vote_.n_features_in_:
             raise ValueError("the training set does not match its feature count")
         return vote_

@@ -9,7 +9,7 @@ k and draw: the way chosen, adapt's expected accuracy and 95% interval, the accu
 grasps, and each way's cross-validated accuracy; then per hand and k the means over draws.
 
 Usage: python benchmarks/adapt_hands.py --cache OUT/data [--counts 2,5] [--draws 5]
-       [--hands menagerie,gymnasium]
+       [--hands menagerie,gymnasium] [--calibrate]
 """
 
 from __future__ import annotations
@@ -33,6 +33,8 @@ def main() -> None:
     ap.add_argument("--counts", default="2,5")
     ap.add_argument("--draws", type=int, default=5)
     ap.add_argument("--hands", default="menagerie,gymnasium")
+    ap.add_argument("--calibrate", action="store_true",
+                    help="adapt --calibrate: the calibrated shape fit among the ways")
     args = ap.parse_args()
     provenance()
     cache = Path(args.cache)
@@ -49,7 +51,7 @@ def main() -> None:
                 known = [g for i, g in enumerate(grasps) if i in idx]
                 test = [g for i, g in enumerate(grasps) if i not in idx]
                 start = time.perf_counter()
-                doc = adapt(known, seed=draw)
+                doc = adapt(known, seed=draw, calibrate=args.calibrate)
                 model = build(doc["chosen"], known)
                 took = time.perf_counter() - start
                 scored = workflow.evaluate(model, test)["accuracy"]

@@ -78,7 +78,8 @@ def test_adapt_keeps_the_default_where_it_names_the_hand_and_a_known_way_where_n
     doc = _json(capsys, ["adapt", "--known", str(folder), "--out", str(tmp_path / "a.npz")])
     rows = {w["way"]: w for w in doc["ways"]}
     assert set(rows) == {"default", "nearest-known", "default-shifted"}
-    assert doc["skipped"] == {"train-known": "no --data (a simulated training set) given"}
+    assert doc["skipped"] == {"train-known": "no --data (a simulated training set) given",
+                              "calibrated-shape-fit": "not asked for (--calibrate)"}
     assert doc["accuracy"] == max(w["accuracy"] for w in doc["ways"])
     assert doc["folds"] == "leave-one-out" and doc["known_grasps"] == 20
     lo, hi = doc["interval"]
@@ -116,7 +117,8 @@ def test_adapt_tries_train_known_with_data(tmp_path, capsys, known):
     write_dataset(make_records(per_shape=6, seed=5), tmp_path / "sim", {"test": True})
     doc = _json(capsys, ["adapt", "--known", str(folder), "--data", str(tmp_path / "sim"),
                          "--out", str(tmp_path / "m.npz")])  # fmt: skip
-    assert "train-known" in {w["way"] for w in doc["ways"]} and not doc["skipped"]
+    assert "train-known" in {w["way"] for w in doc["ways"]}
+    assert list(doc["skipped"]) == ["calibrated-shape-fit"]  # not asked for
     load_model(tmp_path / "m.npz")
 
 
@@ -202,3 +204,58 @@ def test_import_labels_grasps_from_a_labels_file(tmp_path, capsys, recordings):
     err = run_error(capsys, ["import", cones, "--labels", str(labels), "--shape", "cone",
                              "--out", str(tmp_path / "b")])  # fmt: skip
     assert "give one" in err
+
+
+@pytest.fixture(scope="module")
+def few_known(tmp_path_factory):
+    """Two known grasps of each of three shapes (the calibrated way costs a fit per grasp)."""
+    root = tmp_path_factory.mktemp("few")
+    records = [r for r in make_records(per_shape=2, seed=5)
+               if r.shape in ("cylinder", "sphere", "torus")]  # fmt: skip
+    write_dataset(records, root / "known", {"test": True})
+    return root / "known", records
+
+
+def test_the_calibrated_shape_fit_is_tried_only_when_asked_for(tmp_path, capsys, few_known):
+    folder, _ = few_known
+    argv = ["adapt", "--known", str(folder), "--out", str(tmp_path / "a.npz")]
+    plain = _json(capsys, argv)
+    assert "calibrated-shape-fit" not in {w["way"] for w in plain["ways"]}
+    assert "--calibrate" in plain["skipped"]["calibrated-shape-fit"]
+    asked = _json(capsys, [*argv, "--calibrate", "--force"])
+    row = next(w for w in asked["ways"] if w["way"] == "calibrated-shape-fit")
+    assert row["held_out"] == 6 and 0.0 <= row["accuracy"] <= 1.0
+
+
+def test_a_calibrated_shape_fit_model_carries_its_hands_coefficients(tmp_path, few_known):
+    from tactile_bullet.learn.models import save_model
+    from tactile_bullet.perception.shape_fit import fit_shape
+
+    _, records = few_known
+    model = A.build("calibrated-shape-fit", records)
+    param = model.classifier_params["calibration"]
+    loaded = load_model(save_model(tmp_path / "m.npz", model))
+    cal = loaded.estimator.calibration_
+    assert loaded.classifier == "shape-fit" and cal is not None
+    assert np.allclose(cal.gain, param["gain"]) and np.allclose(cal.intercept, param["intercept"])
+    families = sorted({r.shape for r in records})
+    expected = [fit_shape(a, families, cal).shape for a in A._known_fit_angles(records)]
+    assert list(loaded.predict_records(records)) == expected
+
+
+def test_a_model_whose_hand_coefficients_are_out_of_bounds_is_refused(tmp_path, few_known):
+    from tactile_bullet.errors import UsageError
+    from tactile_bullet.learn.models import save_model
+
+    _, records = few_known
+    model = A.build("calibrated-shape-fit", records)
+    path = save_model(tmp_path / "m.npz", model)
+    with np.load(path, allow_pickle=False) as data:
+        members = {k: data[k] for k in data.files}
+    state = json.loads(str(members["estimator_state"]))
+    state["params"]["calibration"]["gain"][0][0] = 40.0
+    members["estimator_state"] = np.array(json.dumps(state))
+    np.savez(tmp_path / "bad.npz", **members)
+    with pytest.raises(UsageError, match="gain must be within") as info:
+        load_model(tmp_path / "bad.npz")
+    assert "\n" not in str(info.value)

@@ -34,6 +34,12 @@ def add_parser(sub) -> None:
         "grasps added (e.g. generate --preset randomized)",
     )  # fmt: skip
     add_allow_partial(parser)
+    parser.add_argument(
+        "--calibrate", action="store_true",
+        help="also try the shape fit calibrated to your hand on the known grasps (as calibrate "
+        "does; 1-3 s per known grasp; on the hands measured it never did better: "
+        "docs/performance.md)",
+    )  # fmt: skip
     parser.add_argument("--seed", type=seed_number, default=0, help="folds and curve draws")
     add_force_flag(parser, "model")
     parser.add_argument("--json", action="store_true", help="print one JSON document")
@@ -54,7 +60,7 @@ def run(args: argparse.Namespace) -> int:
     loaded = read_data(args.known, args)
     known, unlabelled = check_known(loaded.records, shape_names())
     data = read_data(args.data, args).records if args.data else None
-    doc = adapt(known, data, seed=args.seed, tick=tick)
+    doc = adapt(known, data, seed=args.seed, tick=tick, calibrate=args.calibrate)
     model = build(doc["chosen"], known, data)
     model.info["adapt"] = {k: doc[k] for k in ("chosen", "accuracy", "interval", "known_grasps",
                                                "folds", "shapes")}  # fmt: skip

@@ -142,29 +142,15 @@ def load(path: str | os.PathLike) -> HandCalibration:
         if not isinstance(doc.get(key), dict):
             raise UsageError(f"{where}: the [{key}] table is missing")
     coefficients = doc["coefficients"]
-    _only_numbers(coefficients, f"{where}: coefficients")
     strength = doc["report"].get("strength", "shipped")
     if strength != "shipped" and not (
         _is_number(strength) and math.isfinite(strength) and strength >= 0
     ):
         raise UsageError(f"{where}: report.strength must be shipped or a number >= 0, "
                          f"got {strength!r}")  # fmt: skip
-    cal = Calibration.from_dict(coefficients, where)
-    for name, (lo, hi) in COEFFICIENT_BOUNDS.items():
-        value = np.asarray(getattr(cal, name), float)
-        if not np.all((value >= lo) & (value <= hi)):
-            worst = value.flat[int(np.argmax(np.maximum(lo - value, value - hi)))]
-            span = f"{lo:g}-{hi:g}" if lo >= 0 else f"{lo:g} to {hi:g}"
-            raise UsageError(f"{where}: every {name} must be within {span}, got {worst:g} "
-                             "(docs/calibration.md)")  # fmt: skip
+    cal = checked_coefficients(coefficients, where)
     from ..perception.shape_fit import fitted_shapes
 
-    for name, offset in cal.family.items():
-        if name not in fitted_shapes():
-            raise UsageError(f"{where}: coefficients.family names {name!r}: no fitted shape")
-        if not np.all(np.abs(np.degrees(offset)) <= FAMILY_RANGE_DEG):
-            raise UsageError(f"{where}: coefficients.family.{name} must lie within "
-                             f"+-{FAMILY_RANGE_DEG:g} deg")  # fmt: skip
     counts = doc["grasps_per_shape"]
     for name, n in counts.items():
         if name not in fitted_shapes():
@@ -178,6 +164,31 @@ def load(path: str | os.PathLike) -> HandCalibration:
         raise UsageError(f"{where}: report.angles must be raw or zeroed, got {angles!r}")
     cal = replace(cal, angles=angles)
     return HandCalibration(cal, doc["hand"], doc["data"], dict(counts), dict(doc["report"]))
+
+
+def checked_coefficients(coefficients: Mapping, where: str) -> Calibration:
+    """The shape fit's coefficients of a hand (``Calibration.to_dict``'s mapping), every value
+    a number within the bounds of docs/calibration.md; UsageError (one line) otherwise. A hand
+    calibration file and a model that carries its hand's calibration (``adapt``) read them
+    alike."""
+    from ..perception.shape_fit import fitted_shapes
+
+    _only_numbers(coefficients, f"{where}: coefficients")
+    cal = Calibration.from_dict(coefficients, where)
+    for name, (lo, hi) in COEFFICIENT_BOUNDS.items():
+        value = np.asarray(getattr(cal, name), float)
+        if not np.all((value >= lo) & (value <= hi)):
+            worst = value.flat[int(np.argmax(np.maximum(lo - value, value - hi)))]
+            span = f"{lo:g}-{hi:g}" if lo >= 0 else f"{lo:g} to {hi:g}"
+            raise UsageError(f"{where}: every {name} must be within {span}, got {worst:g} "
+                             "(docs/calibration.md)")  # fmt: skip
+    for name, offset in cal.family.items():
+        if name not in fitted_shapes():
+            raise UsageError(f"{where}: coefficients.family names {name!r}: no fitted shape")
+        if not np.all(np.abs(np.degrees(offset)) <= FAMILY_RANGE_DEG):
+            raise UsageError(f"{where}: coefficients.family.{name} must lie within "
+                             f"+-{FAMILY_RANGE_DEG:g} deg")  # fmt: skip
+    return cal
 
 
 def _is_number(value) -> bool:

@@ -39,11 +39,37 @@ def _fci_columns(n_features: int) -> np.ndarray:
     )
 
 
+def _calibration(doc):
+    """The ``calibration`` parameter as coefficients (None: those in force when fitting), every
+    value checked as a hand calibration file's are (ValueError, one line, otherwise)."""
+    if doc is None:
+        return None
+    from dataclasses import replace
+
+    from ...errors import UsageError
+    from ...realhand.hand_calibration import checked_coefficients
+
+    if not isinstance(doc, dict):
+        raise ValueError("shape-fit calibration must be a table of coefficients or None")
+    doc = dict(doc)
+    angles = doc.pop("angles", "raw")
+    if angles not in ("raw", "zeroed"):
+        raise ValueError(f"shape-fit calibration angles must be raw or zeroed, not {angles!r}")
+    try:
+        return replace(checked_coefficients(doc, "shape-fit calibration"), angles=angles)
+    except UsageError as exc:
+        raise ValueError(str(exc)) from None
+
+
 class ShapeFitClassifier(ClassifierMixin, BaseEstimator):
     """Best penalised fit of each class's shape family to the absolute joint angles.
 
-    Parameters: ``temperature`` turns fit scores into probabilities, p ~ exp(-score / T).
-    Fitted attributes: ``classes_``.
+    Parameters: ``temperature`` turns fit scores into probabilities, p ~ exp(-score / T);
+    ``calibration`` is None (the coefficients in force: the shipped ones, or ``--hand-
+    calibration``'s) or a hand's coefficients as ``Calibration.to_dict`` gives them, plus
+    ``angles`` (``raw``/``zeroed``): the model then carries its hand's calibration inside it
+    (``adapt`` writes such models), and no flag is needed to read that hand.
+    Fitted attributes: ``classes_``, ``calibration_`` (None or the ``Calibration``).
     """
 
     required_descriptor = "raw-joints"
@@ -52,8 +78,9 @@ class ShapeFitClassifier(ClassifierMixin, BaseEstimator):
     """Same columns, read zeroed on the open hand (``learn/robust.py``): a per-joint calibration
     bias, which the fit would otherwise take for a shape, is gone before the fit."""
 
-    def __init__(self, temperature=1.0):
+    def __init__(self, temperature=1.0, calibration=None):
         self.temperature = temperature
+        self.calibration = calibration
 
     def expected_failed_checks(self) -> dict[str, str]:
         """scikit-learn checks that cannot apply, with the reason (see tests)."""
@@ -67,6 +94,7 @@ class ShapeFitClassifier(ClassifierMixin, BaseEstimator):
             raise ValueError(f"temperature must be a positive number, got {self.temperature!r}")
         from ...perception import shape_fit
 
+        self.calibration_ = _calibration(self.calibration)
         self.classes_ = np.unique(y)
         for label in self.classes_:
             if str(label) not in shape_fit.fitted_shapes():
@@ -88,7 +116,8 @@ class ShapeFitClassifier(ClassifierMixin, BaseEstimator):
         from ...console import tick
 
         for row, x in enumerate(X):
-            fits = shape_fit.fit_shape(x[cols], names).fits  # cached: predict, then proba
+            # cached per grasp: predict, then proba
+            fits = shape_fit.fit_shape(x[cols], names, self.calibration_).fits
             out[row] = [fits[n].score for n in names]
             tick("shape fits", row + 1, len(X))
         return out
@@ -108,7 +137,8 @@ class ShapeFitClassifier(ClassifierMixin, BaseEstimator):
         """Its temperature and classes: a model of it is a few bytes, saved and read without
         skops (whose import alone costs ~3 s of every train and evaluate of it)."""
         check_is_fitted(self)
-        state = {"params": {"temperature": float(self.temperature)},
+        state = {"params": {"temperature": float(self.temperature),
+                            "calibration": self.calibration},
                  "n_features_in": int(self.n_features_in_)}  # fmt: skip
         return state, {"classes": np.asarray(self.classes_).astype(str)}
 
@@ -131,7 +161,8 @@ class ShapeFitClassifier(ClassifierMixin, BaseEstimator):
         unknown = sorted(set(classes.tolist()) - set(shape_fit.fitted_shapes()))
         if unknown:
             raise ValueError(f"class {unknown[0]!r} is not a shape the fit models")
-        est = cls(temperature=float(temperature))
+        est = cls(temperature=float(temperature), calibration=state["params"]["calibration"])
+        est.calibration_ = _calibration(est.calibration)
         est.classes_ = classes
         est.n_features_in_ = n
         return est

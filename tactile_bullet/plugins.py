@@ -463,10 +463,17 @@ def fitted_form(name: str) -> type | None:
     predict-only form that spares loading the estimator's own imports (a saved knn predicts
     without scikit-learn). None where the factory names none: the model loads as the
     estimator itself."""
-    form = getattr(_lookup("classifiers", name).value, "fitted_form", None)
+    entry = _lookup("classifiers", name)
+    form = getattr(entry.value, "fitted_form", None)
     if not callable(form):
         return None
-    kind = form()
+    try:
+        kind = form()
+    except ImportError as exc:
+        raise UsageError(
+            f"classifier {name!r} (plugin {entry.plugin}) needs a package that is not "
+            f"installed: {exc}"
+        ) from None
     if not isinstance(kind, type) or not callable(getattr(kind, "from_state", None)):
         raise UsageError(f"classifier {name!r}'s fitted_form is not a class with from_state")
     return kind

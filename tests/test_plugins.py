@@ -400,3 +400,34 @@ def test_example_distribution_is_listed_and_selectable(tmp_path):
     )
     proc = subprocess.run([sys.executable, "-c", use], capture_output=True, text=True)
     assert proc.stdout.split() == ["ExampleForest", "7"], proc.stderr
+
+
+def test_a_fitted_form_that_cannot_be_imported_or_is_no_class_is_one_line(register_test_plugin):
+    from tactile_bullet.errors import UsageError
+
+    def missing():
+        raise ImportError("No module named 'fancy_vote'")
+
+    def factory(**params):
+        from sklearn.neighbors import NearestCentroid
+
+        return NearestCentroid(**params)
+
+    def not_a_class():
+        return 42
+
+    class Plugin:
+        @hookimpl
+        def register_classifiers(self, register):
+            register("test-missing-form", type("F", (), {"__call__": staticmethod(factory),
+                                                          "fitted_form": staticmethod(missing)})())
+            register("test-odd-form", type("G", (), {"__call__": staticmethod(factory),
+                                                      "fitted_form": staticmethod(not_a_class)})())
+
+    register_test_plugin(Plugin(), "test-fitted-form-plugin")
+    with pytest.raises(UsageError, match="needs a package that is not installed: No module"):
+        plugins.fitted_form("test-missing-form")
+    with pytest.raises(UsageError, match="not a class with from_state"):
+        plugins.fitted_form("test-odd-form")
+    assert plugins.fitted_form("knn").__name__ == "NeighbourVote"
+    assert plugins.fitted_form("svm") is None

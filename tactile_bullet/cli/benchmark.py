@@ -67,6 +67,11 @@ def add_parser(sub) -> None:
         "--workers", type=count(1, MAX_WORKERS), default=2, help="simulation processes (default 2)"
     )
     parser.add_argument("--seed", type=seed_number, default=0, help="seed of the perturbations")
+    parser.add_argument(
+        "--replicate", type=count(0, 99), default=0, metavar="K",
+        help="robustness: draw every test set afresh (seeds + 1000 K; training sets kept), "
+        "for a recipe chosen after seeing the first sets (docs/robustness.md)",
+    )  # fmt: skip
     add_engine_flag(parser)
     parser.add_argument("--json", action="store_true", help="print the rows as one JSON list")
     from .common import add_hand_calibration_flag
@@ -81,6 +86,9 @@ def run(args: argparse.Namespace) -> int:
 
     if "robustness" in [p.strip() for p in str(args.protocol).split(",")]:
         return run_robustness(args)
+    if args.replicate:
+        raise UsageError("--replicate draws the test sets of --protocol robustness afresh; "
+                         "other protocols do not read it")  # fmt: skip
     if "active" in [p.strip() for p in str(args.protocol).split(",")]:
         return run_active(args)
     if args.other_hand:
@@ -138,7 +146,8 @@ def run_robustness(args: argparse.Namespace) -> int:
     log = (lambda msg: print(msg, file=sys.stderr, flush=True)) if log_lines(args.json) else None
     doc = R.run_robustness(args.out, scale=scale, workers=args.workers, seed=args.seed,
                            cache=args.cache, hands=hands, candidates=candidates,
-                           show=show_progress(args.json), log=log)  # fmt: skip
+                           show=show_progress(args.json), log=log,
+                           replicate=args.replicate)  # fmt: skip
     if args.json:
         emit_json(doc)
         return 0

@@ -105,6 +105,7 @@ SEEN: dict[str, tuple[str, ...]] = {
     "mujoco-randomized": ("gymnasium",),
     "both-randomized": ("gymnasium",),
     "posed-randomized": ("gymnasium", "poses", "turned", "household"),
+    "both+posed-randomized": ("gymnasium", "poses", "turned", "household", "mujoco", "j0-only"),
 }
 """Descriptor or training -> columns it was chosen after seeing (rule 2): marked ``*`` and
 left out of its score."""
@@ -125,9 +126,15 @@ def select_candidates(descriptors: str | None, classifiers: str | None) -> list[
     return chosen
 
 
-def seen_columns(candidate: Candidate, training: str) -> set[str]:
-    """The columns that do not count toward this method's score."""
-    return set(SEEN.get(candidate.descriptor, ())) | set(SEEN.get(training, ()))
+HAND_COLUMNS = frozenset(OTHER_HANDS)
+"""On replicate sets only the hands stay seen: their grasps are new, the hands are not."""
+
+
+def seen_columns(candidate: Candidate, training: str, replicate: int = 0) -> set[str]:
+    """The columns that do not count toward this method's score (on a replicate run, only the
+    hands written by others that it was chosen after seeing)."""
+    seen = set(SEEN.get(candidate.descriptor, ())) | set(SEEN.get(training, ()))
+    return seen & HAND_COLUMNS if replicate else seen
 
 
 # --- scoring -------------------------------------------------------------------------------------
@@ -155,6 +162,7 @@ def score_matrix(
     candidates: Sequence[Candidate],
     seed: int = 0,
     log: Callable[[str], None] | None = None,
+    replicate: int = 0,
 ) -> list[dict[str, Any]]:
     """One row per candidate and training: accuracy, doubt and unknown share per column (None
     with a ``reason`` where the method cannot run there), its score and its eligibility."""
@@ -173,7 +181,7 @@ def score_matrix(
         row: dict[str, Any] = {"method": cand.label, "descriptor": cand.descriptor,
                                "params": dict(cand.params), "classifier": cand.classifier,
                                "training": training, "plugin": cand.plugin, "columns": {},
-                               "seen": sorted(seen_columns(cand, training))}  # fmt: skip
+                               "seen": sorted(seen_columns(cand, training, replicate))}  # fmt: skip
         if not compatible(cand.descriptor, cand.classifier):
             continue
         desc = get_descriptor(cand.descriptor, **dict(cand.params))
@@ -318,14 +326,18 @@ def run_robustness(
     candidates: Sequence[Candidate] | None = None,
     show: bool = False,
     log: Callable[[str], None] | None = None,
+    replicate: int = 0,
 ) -> dict[str, Any]:
     """Simulate every set (cached, resumable), score every candidate, write ``robustness.json``
-    and ``table.md`` under ``out``, and return the document."""
+    and ``table.md`` under ``out``, and return the document. ``replicate`` k > 0: every test
+    set drawn afresh (robustness_sets.set_specs), the training sets kept."""
     from .benchmark import load_set, prepare_out, simulate_sets
     from .reports import write_json, write_text_atomic
 
     if scale not in SCALES:
         raise UsageError(f"unknown scale {scale!r} (known: {', '.join(SCALES)})")
+    if isinstance(replicate, bool) or not isinstance(replicate, int) or not 0 <= replicate <= 99:
+        raise UsageError(f"--replicate must be a whole number from 0 to 99, got {replicate!r}")
     say = log or (lambda _m: None)
     started = time.perf_counter()
     hands = dict(hands or {})
@@ -334,16 +346,16 @@ def run_robustness(
     chosen = _available(candidates or CANDIDATES)
     config = {"protocols": ["robustness"], "scale": scale, "seed": int(seed),
               "hands": {k: str(Path(v).resolve()) for k, v in sorted(hands.items())},
-              "methods": [c.label for c in chosen]}  # fmt: skip
+              "methods": [c.label for c in chosen], "replicate": int(replicate)}  # fmt: skip
     prepare_out(out, config)
     objects = write_objects(cache_dir / "objects")
-    specs = set_specs(scale, hands, objects, plugin_shapes())
+    specs = set_specs(scale, hands, objects, plugin_shapes(), replicate)
     simulate_sets(list(specs.values()), cache_dir, int(workers), show, say)
     sets: dict[str, list[GraspRecord]] = {}
     for short, spec in specs.items():
         sets[short], _missed = load_set(cache_dir / spec.name)
     simulated = time.perf_counter() - started
-    rows = score_matrix(sets, chosen, seed=seed, log=say)
+    rows = score_matrix(sets, chosen, seed=seed, log=say, replicate=replicate)
     best = winner(rows)
     missing = [c.name for c in COLUMNS if c.hand and c.hand not in hands]
     doc = {

@@ -86,11 +86,18 @@ TRAININGS: dict[str, tuple[str, ...]] = {
     "mujoco-randomized": ("mujoco-train-randomized",),
     "both-randomized": ("bullet-train-randomized", "mujoco-train-randomized"),
     "posed-randomized": ("bullet-posed-randomized", "mujoco-posed-randomized"),
+    "both+posed-randomized": ("bullet-train-randomized", "mujoco-train-randomized",
+                              "bullet-posed-randomized", "mujoco-posed-randomized"),
     "none": ("bullet-train",),
 }
 """Training name -> the sets it joins (``none``: the training-free shape fit, which is fitted
 on the Bullet set only to learn its class names)."""
-RANDOMIZED = ("bullet-randomized", "mujoco-randomized", "both-randomized", "posed-randomized")
+RANDOMIZED = ("bullet-randomized", "mujoco-randomized", "both-randomized", "posed-randomized",
+              "both+posed-randomized")
+TRAINING_SETS = frozenset(s for sets in TRAININGS.values() for s in sets)
+"""The sets models are fitted on: a replicate run (``--replicate``) draws every other set
+afresh and keeps these."""
+REPLICATE_SEED_STEP = 1000
 LEARNT = ("bullet", *RANDOMIZED)
 
 
@@ -123,10 +130,25 @@ def _tag(scale: str) -> str:
 
 
 def set_specs(
-    scale: str, hands: Mapping[str, str], objects: Path | None, plugin_shapes: Sequence[str] = ()
+    scale: str, hands: Mapping[str, str], objects: Path | None, plugin_shapes: Sequence[str] = (),
+    replicate: int = 0,
 ) -> dict[str, Any]:
     """Every set the matrix reads, by short name (columns and trainings name them so): each a
-    :class:`protocols.SetSpec` or a :class:`SweepSet` whose ``name`` is its cache folder."""
+    :class:`protocols.SetSpec` or a :class:`SweepSet` whose ``name`` is its cache folder.
+    ``replicate`` k > 0 draws every set that is not a training set afresh: its seed plus
+    k x :data:`REPLICATE_SEED_STEP`, its folder suffixed ``-rK`` (docs/robustness.md)."""
+    out = _set_specs(scale, hands, objects, plugin_shapes)
+    if replicate:
+        for short, spec in out.items():
+            if short not in TRAINING_SETS:
+                out[short] = replace(spec, name=f"{spec.name}-r{replicate}",
+                                     seed=spec.seed + replicate * REPLICATE_SEED_STEP)  # fmt: skip
+    return out
+
+
+def _set_specs(
+    scale: str, hands: Mapping[str, str], objects: Path | None, plugin_shapes: Sequence[str] = ()
+) -> dict[str, Any]:
     from ..datasets.randomize import Randomization, randomized_table
 
     n_train, n_test, n_object = SCALES[scale]

@@ -187,3 +187,38 @@ def test_the_shipped_default_is_the_matrix_winner_it_names():
                                 if v is not None and k not in R.seen_columns(
                                     R.Candidate(meta["descriptor"], meta["classifier"]),
                                     meta["training"]))  # fmt: skip
+
+
+def test_a_replicate_run_draws_every_test_set_afresh_and_keeps_the_training_sets(tmp_path):
+    from tactile_bullet.experiments import robustness_sets as S
+
+    hands = {"menagerie": str(tmp_path / "m.xml")}
+    first = S.set_specs("tiny", hands, tmp_path)
+    again = S.set_specs("tiny", hands, tmp_path, replicate=2)
+    assert set(first) == set(again)
+    for short, spec in first.items():
+        if short in S.TRAINING_SETS:
+            assert again[short] == spec  # the models are fitted on the same grasps
+        else:
+            assert again[short].name == f"{spec.name}-r2"
+            assert again[short].seed == spec.seed + 2 * S.REPLICATE_SEED_STEP
+    assert {"test", "turned", "household", "menagerie"} <= set(first) - S.TRAINING_SETS
+
+
+def test_on_replicate_sets_only_the_hands_stay_seen():
+    cand = R.Candidate("finger-points", "svm")
+    first = R.seen_columns(cand, "both+posed-randomized")
+    assert {"poses", "turned", "household", "mujoco", "j0-only", "menagerie"} <= first
+    assert R.seen_columns(cand, "both+posed-randomized", replicate=1) == {"menagerie",
+                                                                          "gymnasium"}
+    assert R.seen_columns(R.Candidate("signature", "svm"), "posed-randomized", 1) == {
+        "gymnasium"}
+
+
+@pytest.mark.parametrize("argv, message", [
+    (["--protocol", "sim-shift", "--replicate", "1"], "other protocols do not read it"),
+    (["--protocol", "robustness", "--replicate", "-1"], "--replicate"),
+])  # fmt: skip
+def test_replicate_is_refused_where_it_means_nothing(argv, message, capsys, tmp_path):
+    err = run_error(capsys, ["benchmark", *argv, "--out", str(tmp_path / "o")])
+    assert message in err

@@ -1,6 +1,7 @@
-"""A command-line grasp answers without scikit-learn and (for a size grasped before) without
-trimesh: those imports were over half of its time beyond the simulation (issue 30). The
-promise is checked as what a fresh process imports, never as a time."""
+"""A command-line grasp answers without scikit-learn (a saved knn or svm, the default among
+them, predicts in numpy) and, for a size grasped before, without trimesh: those imports were
+most of its time beyond the simulation (issue 30). The promise is checked as what a fresh
+process imports, never as a time."""
 
 from __future__ import annotations
 
@@ -34,6 +35,22 @@ def test_the_default_model_loads_and_answers_without_scikit_learn():
         "from tactile_bullet.learn.default import default_model\n"
         "m = default_model()\n"
         "p = m.estimator.predict_proba(np.zeros((1, m.estimator.n_features_in_)))\n"
+        "print('sklearn' in sys.modules, round(p.sum(), 9))\n"
+    )
+    assert out.split() == ["False", "1.0"]
+
+
+def test_a_saved_knn_loads_and_answers_without_scikit_learn(tmp_path):
+    from tactile_bullet.learn.models import Model
+
+    rng = np.random.default_rng(1)
+    est = plugins.get_classifier("knn").fit(rng.normal(size=(30, 5)), np.repeat(["a", "b"], 15))
+    path = save_model(tmp_path / "m.npz", Model("raw-joints", {}, "knn", {}, est))
+    out = _fresh(
+        "import sys, numpy as np\n"
+        "from tactile_bullet.learn.models import load_model\n"
+        f"m = load_model({str(path)!r})\n"
+        "p = m.estimator.predict_proba(np.zeros((1, 5)))\n"
         "print(type(m.estimator).__name__, 'sklearn' in sys.modules, round(p.sum(), 9))\n"
     )
     assert out.split() == ["NeighbourVote", "False", "1.0"]

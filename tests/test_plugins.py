@@ -430,4 +430,5 @@ def test_a_fitted_form_that_cannot_be_imported_or_is_no_class_is_one_line(regist
     with pytest.raises(UsageError, match="not a class with from_state"):
         plugins.fitted_form("test-odd-form")
     assert plugins.fitted_form("knn").__name__ == "NeighbourVote"
-    assert plugins.fitted_form("svm") is None
+    assert plugins.fitted_form("svm").__name__ == "SVMVote"
+    assert plugins.fitted_form("som") is None

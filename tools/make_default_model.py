@@ -5,7 +5,9 @@ Reads the matrix's ``robustness.json`` (``tactile-bullet benchmark --protocol ro
 the matrix's cache, so the shipped model is the one the matrix scored), calibrates its doubt
 and novelty, and writes ``tactile_bullet/data/default_model.npz`` with
 ``default_model.json`` beside it (the method, its figures in every column, the matrix's
-command and the model's sha256, which the package checks before using it).
+command and the model's sha256, which the package checks before using it), and
+``default_training.npz``: the training grasps' features and labels (``adapt``'s
+``default-shifted`` way refits on them; a knn keeps them itself, an svm does not).
 
 Usage: python tools/make_default_model.py --matrix OUT [--cache OUT/data] [--no-write]
 """
@@ -23,7 +25,7 @@ ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 
 from tactile_bullet.experiments import robustness as R  # noqa: E402
-from tactile_bullet.learn.default import META_FILE, MODEL_FILE  # noqa: E402
+from tactile_bullet.learn.default import META_FILE, MODEL_FILE, TRAINING_FILE  # noqa: E402
 from tactile_bullet.learn.models import save_model  # noqa: E402
 
 DATA = ROOT / "tactile_bullet" / "data"
@@ -58,6 +60,13 @@ def main() -> None:
     if args.no_write:
         return
     path = save_model(DATA / MODEL_FILE, model)
+    training = DATA / TRAINING_FILE
+    import numpy as np
+
+    with open(training, "wb") as fh:
+        np.savez_compressed(fh, features=np.asarray(model.features(records), dtype=float),
+                            labels=np.array([str(r.shape) for r in records]))  # fmt: skip
+    replicate = int(doc["config"].get("replicate", 0))
     meta = {
         "method": best["method"], "descriptor": best["descriptor"], "params": best["params"],
         "classifier": best["classifier"], "training": best["training"],
@@ -65,7 +74,9 @@ def main() -> None:
         "columns": {k: v.get("accuracy") for k, v in row["columns"].items()},
         "out_of_family_unknown": row["columns"].get(R.OUT_OF_FAMILY, {}).get("unknown"),
         "matrix": "tactile-bullet benchmark --protocol robustness --scale full "
-                  "--other-hand menagerie=M.xml,gymnasium=G.xml --out OUT",
+                  "--other-hand menagerie=M.xml,gymnasium=G.xml"
+                  + (f" --replicate {replicate}" if replicate else "") + " --out OUT",
+        "training_sha256": hashlib.sha256(training.read_bytes()).hexdigest(),
         "generated_by": "tools/make_default_model.py", "commit": commit,
         "sha256": hashlib.sha256(path.read_bytes()).hexdigest(),
     }  # fmt: skip

@@ -11,9 +11,8 @@ The candidate ways (measured on hands written by others in docs/robustness.md an
   offset, with the known grasps added five times over, an SVM on the default's descriptor
   (``coupled-finger-points``). The offset is the mean over shapes of (mean of the known grasps
   of a shape - mean of the default's training grasps of that shape). The default's training
-  records are not shipped, only its model file; its classifier is a k-NN that keeps its
-  training grasps' features (standardised, with the mean and scale beside them) and labels,
-  which this way reads (:func:`default_training`).
+  records are not shipped, only their features and labels beside its model file
+  (``default_training.npz``, sha256-checked), which this way reads (:func:`default_training`).
 - ``train-known`` (only with ``data``, a simulated training set such as a randomised preset):
   the default's method fitted on that set with the known grasps added (``train --known``).
 - ``calibrated-shape-fit`` (asked for with ``calibrate=True``, ``adapt --calibrate``; where
@@ -115,12 +114,17 @@ def check_known(records: Sequence, known_shapes: Sequence[str]) -> tuple[list, i
 
 
 def default_training(model) -> tuple[np.ndarray, np.ndarray]:
-    """The default model's training features and labels, read from its fitted k-NN (which keeps
-    its training grasps standardised, with their mean and scale): the training records
-    themselves are not shipped. A UsageError where the estimator keeps no training grasps."""
+    """The default model's training features and labels: read from its fitted k-NN where it is
+    one (it keeps its training grasps standardised, with their mean and scale), else from the
+    features shipped beside the default (``default_training.npz``, sha256-checked). A
+    UsageError where neither holds them."""
     est = model.estimator
     if not all(hasattr(est, a) for a in ("train_", "mean_", "scale_", "classes_", "y_index_")):
-        raise UsageError("the default model keeps no training grasps (not a k-NN)")
+        from ..learn.default import default_model, default_training_set
+
+        if model is not default_model():
+            raise UsageError("the model keeps no training grasps (not a k-NN)")
+        return default_training_set()  # shipped beside the default
     x = np.asarray(est.train_, dtype=float) * est.scale_ + est.mean_
     return x, np.asarray(est.classes_)[est.y_index_].astype(str)
 

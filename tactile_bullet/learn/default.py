@@ -20,6 +20,8 @@ from ..errors import UsageError
 
 MODEL_FILE = "default_model.npz"
 META_FILE = "default_model.json"
+TRAINING_FILE = "default_training.npz"
+"""The default's training grasps as features and labels (what ``adapt`` shifts to a hand)."""
 DEFAULT_NAME = "default"
 """What ``--model`` may also say to ask for the default explicitly."""
 
@@ -64,6 +66,28 @@ def default_model():
         )
     with resources.as_file(resource) as path:
         return load_model(path)
+
+
+def default_training_set():
+    """(features, labels) the default was fitted on, checked against the sha256 shipped beside
+    them; a UsageError where they are missing or damaged (reinstall)."""
+    import numpy as np
+
+    meta = default_meta()
+    resource = _data() / TRAINING_FILE
+    try:
+        blob = resource.read_bytes()
+    except OSError:
+        raise UsageError("the default's training grasps are missing from this install; "
+                         "reinstall tactile-bullet") from None  # fmt: skip
+    if hashlib.sha256(blob).hexdigest() != meta.get("training_sha256"):
+        raise UsageError("the default's training grasps are damaged (their sha256 differs "
+                         "from the one shipped); reinstall tactile-bullet")  # fmt: skip
+    with resources.as_file(resource) as path, np.load(path, allow_pickle=False) as data:
+        x, y = np.asarray(data["features"], dtype=float), np.asarray(data["labels"]).astype(str)
+    if x.ndim != 2 or y.shape != (len(x),) or not np.all(np.isfinite(x)):
+        raise UsageError("the default's training grasps are damaged; reinstall tactile-bullet")
+    return x, y
 
 
 def resolve_model(path):

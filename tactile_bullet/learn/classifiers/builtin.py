@@ -17,6 +17,16 @@ def svm(**params):
     return SVMClassifier(**params)
 
 
+def _svm_vote() -> type:
+    from ..svm_state import SVMVote
+
+    return SVMVote
+
+
+svm.fitted_form = _svm_vote
+"""A saved svm loads as an SVMVote: predicting needs no scikit-learn (plugins.fitted_form)."""
+
+
 def knn(**params):
     from .knn import KNNClassifier
 

@@ -22,41 +22,20 @@ import sklearn
 from scipy.special import expit
 from sklearn.base import BaseEstimator, ClassifierMixin
 from sklearn.exceptions import InconsistentVersionWarning
-from sklearn.model_selection import StratifiedKFold, cross_val_predict
 from sklearn.svm import SVC
 from sklearn.utils.multiclass import check_classification_targets
 from sklearn.utils.validation import check_is_fitted, validate_data
 
-_F64, _I32 = np.dtype(np.float64), np.dtype(np.int32)
-SVC_ARRAYS: dict[str, np.dtype] = {
-    "class_weight_": _F64, "classes_": np.dtype(np.intp), "support_": _I32,
-    "support_vectors_": _F64, "_n_support": _I32, "dual_coef_": _F64, "intercept_": _F64,
-    "_probA": _F64, "_probB": _F64, "_num_iter": _I32, "_intercept_": _F64,
-    "_dual_coef_": _F64, "n_iter_": _I32,
-}  # fmt: skip
-"""The fitted SVC's array attributes (scikit-learn 1.9) and the dtype each must have: libsvm
-reads them as typed buffers."""
-
-_NONE, _NUMBER = type(None), (int, float)
-SVC_SCALARS: dict[str, tuple[type, ...]] = {
-    "decision_function_shape": (str,), "break_ties": (bool,), "kernel": (str,), "degree": (int,),
-    "gamma": (str, *_NUMBER), "coef0": _NUMBER, "tol": _NUMBER, "C": _NUMBER, "nu": _NUMBER,
-    "epsilon": _NUMBER, "shrinking": (bool,), "probability": (str, bool), "cache_size": _NUMBER,
-    "class_weight": (_NONE, str), "verbose": (bool,), "max_iter": (int,),
-    "random_state": (_NONE, int), "_sparse": (bool,), "n_features_in_": (int,),
-    "_effective_probability": (bool,), "_gamma": _NUMBER, "fit_status_": (int,),
-    "shape_fit_": (list,), "_sklearn_version": (str,),
-}  # fmt: skip
-"""The fitted SVC's other attributes (scikit-learn 1.9), as JSON values of these types
-(``shape_fit_`` is a tuple kept as a list, ``_gamma`` a numpy float kept as a float)."""
-
-_PARAMS: dict[str, tuple[type, ...]] = {
-    "C": _NUMBER, "kernel": (str,), "gamma": (str, *_NUMBER), "class_weight": (_NONE, str),
-    "cv": (int,), "random_state": (_NONE, int),
-}  # fmt: skip
-_KERNELS = ("linear", "poly", "rbf", "sigmoid")
-_OWN_ARRAYS = ("classes", "mean", "scale", "platt")
-_SVC_PREFIX = "svc."
+from ..svm_state import (
+    PARAMS,
+    SVC_ARRAYS,
+    SVC_PREFIX,
+    SVC_SCALARS,
+    SVMState,
+    check_state,
+    plain,
+    platt_proba,
+)
 
 
 def platt_sigmoid(decision: np.ndarray, positive: np.ndarray) -> tuple[float, float]:
@@ -135,6 +114,8 @@ class SVMClassifier(ClassifierMixin, BaseEstimator):
         return SVC(C=self.C, kernel=self.kernel, gamma=self.gamma, class_weight=self.class_weight)
 
     def fit(self, X, y):
+        from sklearn.model_selection import StratifiedKFold, cross_val_predict
+
         X, y = validate_data(self, X, y)
         check_classification_targets(y)
         if isinstance(self.cv, bool) or not isinstance(self.cv, int | np.integer) or self.cv < 2:
@@ -168,15 +149,8 @@ class SVMClassifier(ClassifierMixin, BaseEstimator):
     def predict_proba(self, X) -> np.ndarray:
         check_is_fitted(self)
         X = validate_data(self, X, reset=False)
-        decision = self.svc_.decision_function((X - self.mean_) / self.scale_)
-        if len(self.classes_) == 2:
-            a, b = self.platt_[0]
-            p = expit(-(a * decision + b))
-            return np.column_stack([1.0 - p, p])
-        p = expit(-(self.platt_[:, 0] * decision + self.platt_[:, 1]))
-        total = p.sum(axis=1, keepdims=True)
-        uniform = np.full_like(p, 1.0 / p.shape[1])
-        return np.divide(p, total, out=uniform, where=total > 0)
+        return platt_proba(self.svc_.decision_function((X - self.mean_) / self.scale_),
+                           self.platt_)  # fmt: skip
 
     def predict(self, X) -> np.ndarray:
         proba = self.predict_proba(X)
@@ -191,17 +165,17 @@ class SVMClassifier(ClassifierMixin, BaseEstimator):
         NotImplementedError where this scikit-learn's SVC holds other attributes than the
         ones :meth:`from_state` restores (another version): models.py then writes skops."""
         check_is_fitted(self)
-        params = {name: _plain(name, getattr(self, name)) for name in _PARAMS}
+        params = {name: plain(name, getattr(self, name)) for name in PARAMS}
         scalars: dict = {}
         arrays: dict[str, np.ndarray] = {}
         for name, value in self.svc_.__getstate__().items():
             if isinstance(value, np.ndarray) and value.dtype.kind in "biuf":
-                arrays[_SVC_PREFIX + name] = value
+                arrays[SVC_PREFIX + name] = value
             elif isinstance(value, tuple):
-                scalars[name] = [_plain(f"SVC {name}", v) for v in value]
+                scalars[name] = [plain(f"SVC {name}", v) for v in value]
             else:
-                scalars[name] = _plain(f"SVC {name}", value)
-        dtypes = {k.removeprefix(_SVC_PREFIX): v.dtype for k, v in arrays.items()}
+                scalars[name] = plain(f"SVC {name}", value)
+        dtypes = {k.removeprefix(SVC_PREFIX): v.dtype for k, v in arrays.items()}
         if set(scalars) != set(SVC_SCALARS) or dtypes != SVC_ARRAYS:
             raise NotImplementedError(
                 f"scikit-learn {sklearn.__version__}'s SVC holds other attributes than those "
@@ -218,125 +192,22 @@ class SVMClassifier(ClassifierMixin, BaseEstimator):
 
     @classmethod
     def from_state(cls, state: dict, arrays: dict[str, np.ndarray]) -> SVMClassifier:
-        """Rebuild a fitted estimator from ``to_state``'s output, checking every kind and
-        shape: a damaged file is a ValueError (or KeyError/TypeError), never a crash later."""
-        params = state["params"]
-        if not isinstance(params, dict) or set(params) != set(_PARAMS):
-            raise ValueError(f"svm parameters must be {', '.join(_PARAMS)}")
-        for name, value in params.items():
-            _check_kind(name, value, _PARAMS[name])
-        est = cls(**params)
-        n = state["n_features_in"]
-        _check_kind("n_features_in", n, (int,))
-        if n < 1:
-            raise ValueError(f"n_features_in {n} is not a count")
-        extra = {k for k in arrays if not k.startswith(_SVC_PREFIX)} - set(_OWN_ARRAYS)
-        if extra:
-            raise ValueError(f"unknown svm arrays: {', '.join(sorted(extra))}")
-        classes = np.asarray(arrays["classes"])
-        k = len(classes)
-        if classes.ndim != 1 or classes.dtype.kind not in "biuU" or k < 2 \
-                or len(np.unique(classes)) != k:  # fmt: skip
-            raise ValueError("classes are not 2 or more distinct names or numbers")
-        mean, scale, platt = (np.asarray(arrays[name]) for name in ("mean", "scale", "platt"))
-        for name, value, shape in (("mean", mean, (n,)), ("scale", scale, (n,)),
-                                   ("platt", platt, (1 if k == 2 else k, 2))):  # fmt: skip
-            if value.dtype != _F64 or value.shape != shape:
-                raise ValueError(f"{name} is {value.dtype} {value.shape}, not float64 {shape}")
-            if not np.all(np.isfinite(value)):
-                raise ValueError(f"{name} holds non-numbers")
-        if np.any(scale <= 0):
-            raise ValueError("scale is not positive")
-        svc_arrays = {
-            name.removeprefix(_SVC_PREFIX): value
-            for name, value in arrays.items()
-            if name.startswith(_SVC_PREFIX)
-        }
-        est.svc_ = _restore_svc(state["svc"], svc_arrays, n, k)
-        est.mean_, est.scale_, est.platt_, est.classes_ = mean, scale, platt, classes
-        est.n_features_in_ = n
+        """Rebuild a fitted estimator from ``to_state``'s output, checked in every kind and
+        shape (``svm_state.check_state``): a damaged file is a ValueError (or KeyError,
+        TypeError), never a crash later."""
+        st = check_state(state, arrays)
+        est = cls(**st.params)
+        est.svc_ = _restore_svc(st)
+        est.mean_, est.scale_, est.platt_, est.classes_ = st.mean, st.scale, st.platt, st.classes
+        est.n_features_in_ = st.n_features
         return est
 
 
-def _plain(name: str, value):
-    """``value`` as a JSON scalar (numpy scalars as Python ones); ValueError for anything else."""
-    if isinstance(value, np.generic) and value.dtype.kind in "biuf":
-        value = value.item()
-    if value is None or isinstance(value, str | int | float | bool):
-        return value
-    raise ValueError(f"{name} is a {type(value).__name__}, which an svm model file does not hold")
-
-
-def _check_kind(name: str, value, kinds: tuple[type, ...]) -> None:
-    """TypeError unless ``value`` is one of ``kinds`` (a bool is not a number here), and
-    ValueError for a non-finite float."""
-    if (isinstance(value, bool) and bool not in kinds) or not isinstance(value, kinds):
-        wanted = " or ".join(k.__name__ for k in kinds)
-        raise TypeError(f"{name} is a {type(value).__name__}, not {wanted}")
-    if isinstance(value, float) and not np.isfinite(value):
-        raise ValueError(f"{name} is not finite")
-
-
-def _series(version) -> tuple[str, ...] | None:
-    """A scikit-learn version's release series (major, minor): a patch release fixes bugs and
-    keeps a fitted estimator's attributes, so files move across it."""
-    if not isinstance(version, str):
-        return None
-    return tuple(version.split(".")[:2])
-
-
-def _restore_svc(scalars: dict, arrays: dict[str, np.ndarray], n: int, k: int) -> SVC:
-    """The fitted SVC of ``to_state``'s entries: only the names and kinds scikit-learn 1.9's
-    SVC holds, made by this scikit-learn release series, with the shapes libsvm's prediction
-    reads."""
-    if not isinstance(scalars, dict):
-        raise TypeError("the SVC state is not a table")
-    made_by = scalars.get("_sklearn_version")
-    if _series(made_by) != _series(sklearn.__version__):  # patch releases keep SVC's layout
-        raise ValueError(f"the svm was made by scikit-learn {made_by or '(unknown)'}, this is "
-                         f"scikit-learn {sklearn.__version__}; retrain the model")  # fmt: skip
-    for found, known in ((scalars, SVC_SCALARS), (arrays, SVC_ARRAYS)):
-        if set(found) != set(known):
-            odd = sorted(set(found) ^ set(known))
-            raise ValueError(f"unknown or missing SVC attributes: {', '.join(odd)}")
-    for name, kinds in SVC_SCALARS.items():
-        _check_kind(name, scalars[name], kinds)
-    for name, dtype in SVC_ARRAYS.items():
-        if arrays[name].dtype != dtype:
-            raise TypeError(f"SVC {name} is {arrays[name].dtype}, not {dtype}")
-        if dtype.kind == "f" and not np.all(np.isfinite(arrays[name])):
-            raise ValueError(f"SVC {name} holds non-numbers")
-    shape_fit = scalars["shape_fit_"]
-    if len(shape_fit) != 2 or any(isinstance(v, bool) or not isinstance(v, int)
-                                  for v in shape_fit) or shape_fit[1] != n:  # fmt: skip
-        raise ValueError(f"SVC shape_fit_ {shape_fit!r} is not (samples, {n})")
-    if scalars["n_features_in_"] != n or scalars["kernel"] not in _KERNELS or scalars["_sparse"] \
-            or scalars["decision_function_shape"] not in ("ovr", "ovo") \
-            or scalars["degree"] < 0 or scalars["cache_size"] <= 0:  # fmt: skip
-        raise ValueError("the SVC's settings are not those of a dense SVC on the features")
-    pairs = k * (k - 1) // 2
-    support, n_support = arrays["support_"], arrays["_n_support"]
-    n_sv = len(support)
-    shapes = {
-        "classes_": (k,), "class_weight_": (k,), "support_": (n_sv,), "_n_support": (k,),
-        "support_vectors_": (n_sv, n), "dual_coef_": (k - 1, n_sv), "_dual_coef_": (k - 1, n_sv),
-        "intercept_": (pairs,), "_intercept_": (pairs,), "_num_iter": (pairs,),
-        "n_iter_": (pairs,),
-    }  # fmt: skip
-    for name, shape in shapes.items():
-        if arrays[name].shape != shape:
-            raise ValueError(f"SVC {name} has shape {arrays[name].shape}, not {shape}")
-    for name in ("_probA", "_probB"):
-        if arrays[name].shape not in ((0,), (pairs,)):
-            raise ValueError(f"SVC {name} has shape {arrays[name].shape}, not (0,) or ({pairs},)")
-    if not np.array_equal(arrays["classes_"], np.arange(k)):
-        raise ValueError("SVC classes_ are not the class indices")
-    if n_sv < 1 or np.any(n_support < 0) or int(n_support.sum()) != n_sv:
-        raise ValueError("SVC _n_support does not count its support vectors")
-    if np.any(support < 0) or np.any(support >= shape_fit[0]):
-        raise ValueError("SVC support_ indices lie outside its training set")
+def _restore_svc(st: SVMState) -> SVC:
+    """The fitted SVC of a checked state (``svm_state.check_state``)."""
     svc = SVC.__new__(SVC)
-    with warnings.catch_warnings():  # another patch release of the series: checked above
+    shape_fit = st.svc_scalars["shape_fit_"]
+    with warnings.catch_warnings():  # another patch release of the series: checked before
         warnings.simplefilter("ignore", InconsistentVersionWarning)
-        svc.__setstate__({**scalars, **arrays, "shape_fit_": tuple(shape_fit)})
+        svc.__setstate__({**st.svc_scalars, **st.svc_arrays, "shape_fit_": tuple(shape_fit)})
     return svc

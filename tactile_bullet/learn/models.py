@@ -15,7 +15,8 @@ one of two ways:
 
 A classifier's factory may name a ``fitted_form`` (``factory.fitted_form``, a callable returning
 a class with ``from_state``): a state-encoded file of it then loads as that predict-only class,
-sparing the estimator's own imports (a saved knn predicts in numpy without scikit-learn).
+sparing the estimator's own imports (a saved knn or svm predicts in numpy without
+scikit-learn).
 
 For plugin authors: a classifier whose state skops cannot represent (a torch module, a C
 handle) implements ``to_state() -> (dict of JSON values, dict of numeric numpy arrays)`` and a

@@ -5,8 +5,8 @@ scikit-learn's KNeighborsClassifier: grasp data sets are small (hundreds to thou
 records), and scikit-learn's search layers cost several milliseconds per single-grasp call,
 above the 5 ms budget for identifying one grasp. It saves itself as numeric arrays
 (``to_state``), and a saved model loads as a ``neighbours.NeighbourVote`` (the registry's
-``fitted_form``), which needs neither skops nor scikit-learn: the default identifier is a knn,
-and those imports were most of a command-line grasp's own time.
+``fitted_form``), which needs neither skops nor scikit-learn, whose imports were most of a
+command-line grasp's own time.
 """
 
 from __future__ import annotations

@@ -2,8 +2,9 @@
 
 The ``knn`` classifier (:mod:`~tactile_bullet.learn.classifiers.knn`) is a scikit-learn
 estimator, and importing scikit-learn costs ~0.5 s: half of a command-line grasp's budget
-beyond its simulation, for an answer that is a distance matrix and a vote. Fitting stays with the estimator; a loaded model predicts through this class, whose
-:func:`vote` the estimator also calls, so both answer alike by construction.
+beyond its simulation, for an answer that is a distance matrix and a vote. Fitting stays with
+the estimator; a loaded model predicts through this class, whose :func:`vote` the estimator
+also calls, so both answer alike by construction.
 """
 
 from __future__ import annotations

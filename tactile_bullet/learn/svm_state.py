@@ -102,9 +102,14 @@ class SVMState:
     svc_arrays: dict[str, np.ndarray]
 
 
-def check_state(state: dict, arrays: dict[str, np.ndarray]) -> SVMState:
+def check_state(
+    state: dict, arrays: dict[str, np.ndarray], for_libsvm: bool = True
+) -> SVMState:
     """``to_state``'s output checked in every kind and shape: a damaged file is a ValueError
-    (or KeyError/TypeError), never a crash later in libsvm or here."""
+    (or KeyError/TypeError), never a crash later in libsvm or here. ``for_libsvm``: the state
+    will be handed to scikit-learn's SVC, which reads its arrays as that release series laid
+    them out, so it must come from the installed series; :class:`SVMVote` reads the arrays
+    itself, by their checked shapes, under any scikit-learn (the shipped default is an svm)."""
     params = state["params"]
     if not isinstance(params, dict) or set(params) != set(PARAMS):
         raise ValueError(f"svm parameters must be {', '.join(PARAMS)}")
@@ -134,18 +139,20 @@ def check_state(state: dict, arrays: dict[str, np.ndarray]) -> SVMState:
     svc_arrays = {name.removeprefix(SVC_PREFIX): value for name, value in arrays.items()
                   if name.startswith(SVC_PREFIX)}  # fmt: skip
     scalars = state["svc"]
-    _check_svc(scalars, svc_arrays, n, k, installed_sklearn())
+    _check_svc(scalars, svc_arrays, n, k, installed_sklearn() if for_libsvm else None)
     return SVMState(dict(params), n, classes, mean, scale, platt, scalars, svc_arrays)
 
 
 def _check_svc(scalars: dict, arrays: dict[str, np.ndarray], n: int, k: int,
-               installed: str) -> None:  # fmt: skip
+               installed: str | None) -> None:  # fmt: skip
     """The fitted SVC's entries: only the names and kinds scikit-learn 1.9's SVC holds, made by
     the installed scikit-learn's release series, with the shapes libsvm's prediction reads."""
     if not isinstance(scalars, dict):
         raise TypeError("the SVC state is not a table")
     made_by = scalars.get("_sklearn_version")
-    if _series(made_by) != _series(installed):  # patch releases keep SVC's layout
+    if not isinstance(made_by, str):
+        raise TypeError("the SVC state does not say which scikit-learn made it")
+    if installed is not None and _series(made_by) != _series(installed):  # patch: same layout
         raise ValueError(f"the svm was made by scikit-learn {made_by or '(unknown)'}, this is "
                          f"scikit-learn {installed}; retrain the model")  # fmt: skip
     for found, known in ((scalars, SVC_SCALARS), (arrays, SVC_ARRAYS)):
@@ -213,7 +220,7 @@ class SVMVote:
     in numpy from the SVC's support vectors, dual coefficients and intercepts."""
 
     def __init__(self, state: dict, arrays: dict[str, np.ndarray]) -> None:
-        st = check_state(state, arrays)
+        st = check_state(state, arrays, for_libsvm=False)
         self._state, self._arrays = state, dict(arrays)
         self.params = st.params
         self.classes_ = st.classes

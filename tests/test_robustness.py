@@ -222,3 +222,21 @@ def test_on_replicate_sets_only_the_hands_stay_seen():
 def test_replicate_is_refused_where_it_means_nothing(argv, message, capsys, tmp_path):
     err = run_error(capsys, ["benchmark", *argv, "--out", str(tmp_path / "o")])
     assert message in err
+
+
+def test_a_noise_aware_training_presents_each_record_through_joint_noise_too():
+    from synthetic import make_records
+
+    from tactile_bullet.experiments import robustness_sets as S
+    from tactile_bullet.learn.robust import AUGMENT_COPIES
+
+    records = make_records(per_shape=2, seed=7)
+    sets = {short: records for short in S.TRAININGS["both+posed-noise-aware"]}
+    plain = R.training_set(sets, "both+posed-randomized")
+    noisy = R.training_set(sets, "both+posed-noise-aware")
+    assert len(noisy) == len(plain) * (1 + AUGMENT_COPIES)
+    assert noisy[: len(plain)] == plain  # the originals first, then the perturbed copies
+    moved = [np.abs(n.final_angles - p.final_angles).max()
+             for n, p in zip(noisy[len(plain):2 * len(plain)], plain, strict=True)]  # fmt: skip
+    assert 0 < float(np.median(moved)) < np.radians(5)
+    assert "noise" in R.seen_columns(R.Candidate("signature", "svm"), "both+posed-noise-aware")

@@ -46,7 +46,7 @@ def main() -> None:
     if scale != "full":
         sys.exit(f"the default is chosen at full scale; this matrix is {scale!r}")
     cache = Path(args.cache) if args.cache else matrix / "data"
-    records = R.training_records(cache, scale, best["training"])
+    records = R.training_records(cache, scale, best["training"], int(doc["config"]["seed"]))
     row = next(r for r in doc["rows"] if r["method"] == best["method"]
                and r["training"] == best["training"])  # fmt: skip
     commit = subprocess.run(["git", "-C", str(ROOT), "rev-parse", "--short", "HEAD"],

@@ -45,6 +45,7 @@ from .robustness_sets import (  # noqa: F401 - the matrix's names, re-exported
     LEARNT,
     NO_FAMILY_OBJECTS,
     NOISE,
+    NOISE_AWARE,
     OTHER_HANDS,
     OUT_OF_FAMILY,
     OUT_OF_FAMILY_SETS,
@@ -106,6 +107,8 @@ SEEN: dict[str, tuple[str, ...]] = {
     "both-randomized": ("gymnasium",),
     "posed-randomized": ("gymnasium", "poses", "turned", "household"),
     "both+posed-randomized": ("gymnasium", "poses", "turned", "household", "mujoco", "j0-only"),
+    "both+posed-noise-aware": ("gymnasium", "poses", "turned", "household", "mujoco", "j0-only",
+                               "noise"),
 }
 """Descriptor or training -> columns it was chosen after seeing (rule 2): marked ``*`` and
 left out of its score."""
@@ -185,7 +188,7 @@ def score_matrix(
         if not compatible(cand.descriptor, cand.classifier):
             continue
         desc = get_descriptor(cand.descriptor, **dict(cand.params))
-        train = [r for s in TRAININGS[training] for r in sets[s]]
+        train = training_set(sets, training, seed)
         y = _labels(train)
         x = np.asarray(desc.transform(train), float)
         fitted = _fit(cand, x, y, train, seed, fit_cache)
@@ -402,9 +405,23 @@ def fit_model(
     return model
 
 
-def training_records(cache: Path, scale: str, training: str) -> list[GraspRecord]:
-    """The records of one of the matrix's trainings, read from its cache."""
+def training_set(sets: Mapping[str, list[GraspRecord]], training: str,
+                 seed: int = 0) -> list[GraspRecord]:  # fmt: skip
+    """The records a training fits on: its sets joined, and for a noise-aware training each
+    record also presented through joint noise (``learn/robust.augment``, seeded)."""
+    records = [r for s in TRAININGS[training] for r in sets[s]]
+    if training in NOISE_AWARE:
+        from ..learn.robust import augment
+
+        records = augment(records, seed=seed)
+    return records
+
+
+def training_records(cache: Path, scale: str, training: str, seed: int = 0) -> list[GraspRecord]:
+    """The records of one of the matrix's trainings, read from its cache (augmented where
+    the training is noise-aware, as the matrix scored it)."""
     from .benchmark import load_set
 
     specs = set_specs(scale, {}, None)
-    return [r for short in TRAININGS[training] for r in load_set(cache / specs[short].name)[0]]
+    sets = {short: load_set(cache / specs[short].name)[0] for short in TRAININGS[training]}
+    return training_set(sets, training, seed)

@@ -88,12 +88,17 @@ TRAININGS: dict[str, tuple[str, ...]] = {
     "posed-randomized": ("bullet-posed-randomized", "mujoco-posed-randomized"),
     "both+posed-randomized": ("bullet-train-randomized", "mujoco-train-randomized",
                               "bullet-posed-randomized", "mujoco-posed-randomized"),
+    "both+posed-noise-aware": ("bullet-train-randomized", "mujoco-train-randomized",
+                               "bullet-posed-randomized", "mujoco-posed-randomized"),
     "none": ("bullet-train",),
 }
 """Training name -> the sets it joins (``none``: the training-free shape fit, which is fitted
 on the Bullet set only to learn its class names)."""
 RANDOMIZED = ("bullet-randomized", "mujoco-randomized", "both-randomized", "posed-randomized",
-              "both+posed-randomized")
+              "both+posed-randomized", "both+posed-noise-aware")
+NOISE_AWARE = frozenset({"both+posed-noise-aware"})
+"""Trainings whose records are also presented through joint noise (``train --training
+noise-aware``'s augmentation, learn/robust.py), added in the second replicate run."""
 TRAINING_SETS = frozenset(s for sets in TRAININGS.values() for s in sets)
 """The sets models are fitted on: a replicate run (``--replicate``) draws every other set
 afresh and keeps these."""

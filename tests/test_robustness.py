@@ -186,7 +186,7 @@ def test_the_shipped_default_is_the_matrix_winner_it_names():
     assert meta["score"] == min(v for k, v in meta["columns"].items()
                                 if v is not None and k not in R.seen_columns(
                                     R.Candidate(meta["descriptor"], meta["classifier"]),
-                                    meta["training"]))  # fmt: skip
+                                    meta["training"], meta.get("replicate", 0)))  # fmt: skip
 
 
 def test_a_replicate_run_draws_every_test_set_afresh_and_keeps_the_training_sets(tmp_path):

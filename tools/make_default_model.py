@@ -77,6 +77,7 @@ def main() -> None:
                   "--other-hand menagerie=M.xml,gymnasium=G.xml"
                   + (f" --replicate {replicate}" if replicate else "") + " --out OUT",
         "training_sha256": hashlib.sha256(training.read_bytes()).hexdigest(),
+        "replicate": replicate,
         "generated_by": "tools/make_default_model.py", "commit": commit,
         "sha256": hashlib.sha256(path.read_bytes()).hexdigest(),
     }  # fmt: skip

@@ -231,9 +231,10 @@ def _fit(cand: Candidate, x: np.ndarray, y: np.ndarray, train, seed: int,
     """The candidate fitted on one training, its doubt calibrated (the shape fit's answers read
     once a run) and its novelty."""
     from ..learn.doubt import calibrate_margin
-    from ..learn.novelty import Novelty
+    from ..learn.novelty import Novelty, grasp_groups
     from ..plugins import get_classifier
 
+    groups = grasp_groups(train)  # noise-aware copies of a grasp held out together
     estimator = get_classifier(cand.classifier).fit(x, y)
     if cand.classifier == "shape-fit":
         calibration: dict[str, Any] = {"margin": None, "cross_check": None}
@@ -241,9 +242,9 @@ def _fit(cand: Candidate, x: np.ndarray, y: np.ndarray, train, seed: int,
         calibration = calibrate_margin(lambda: get_classifier(cand.classifier), x, y,
                                        seed=seed, records=train, classifier=cand.classifier,
                                        names=lambda recs, cls: _shape_fit_names(
-                                           recs, fit_cache, cls))  # fmt: skip
+                                           recs, fit_cache, cls), groups=groups)  # fmt: skip
     try:
-        novelty = Novelty.fit(x, y, seed=seed)
+        novelty = Novelty.fit(x, y, seed=seed, groups=groups)
     except ValueError:
         novelty = None
     return _Fitted(estimator, calibration, novelty)

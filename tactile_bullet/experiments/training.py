@@ -130,7 +130,7 @@ def train(
         # the ambiguity threshold, set on grasps each held out of a fit (learn/doubt.py)
         make = lambda: _estimator(classifier, params)  # noqa: E731
         info["doubt"] = model_doubt(make, x, y, records, classifier, reference)
-    novelty = _novelty(x, y)
+    novelty = _novelty(x, y, records)
     if novelty is not None:
         info["novelty"] = novelty.summary()
     return Model(
@@ -145,13 +145,14 @@ def train(
     )
 
 
-def _novelty(x: np.ndarray, y: np.ndarray):
+def _novelty(x: np.ndarray, y: np.ndarray, records=None):
     """The model's :class:`~tactile_bullet.learn.novelty.Novelty` (answers ``unknown`` where a
-    grasp lies far from every training grasp), None where too few grasps calibrate it."""
-    from ..learn.novelty import Novelty
+    grasp lies far from every training grasp), None where too few grasps calibrate it;
+    ``records``: copies of one grasp among them are held out together."""
+    from ..learn.novelty import Novelty, grasp_groups
 
     try:
-        return Novelty.fit(x, y)
+        return Novelty.fit(x, y, groups=None if records is None else grasp_groups(records))
     except ValueError:
         return None
 

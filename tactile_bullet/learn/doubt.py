@@ -224,11 +224,15 @@ def flag_shares(is_flagged: np.ndarray, correct: np.ndarray) -> dict[str, float 
 
 
 def held_out_margins(
-    make: Callable[[], Any], x: np.ndarray, y: np.ndarray, folds: int = FOLDS, seed: int = 0
+    make: Callable[[], Any], x: np.ndarray, y: np.ndarray, folds: int = FOLDS, seed: int = 0,
+    groups: np.ndarray | None = None,
 ) -> tuple[np.ndarray, np.ndarray] | str:
     """(margins, correct) of every row predicted by a fresh estimator (``make()``) fitted on the
-    other folds, or the reason none can be had (too few grasps of a shape)."""
+    other folds, or the reason none can be had (too few grasps of a shape). ``groups``: rows
+    that are copies of one grasp (noise-aware training) are held out together."""
     from sklearn.model_selection import StratifiedKFold
+
+    from .novelty import group_split
 
     y = np.asarray(y).astype(str)
     _, counts = np.unique(y, return_counts=True)
@@ -237,10 +241,13 @@ def held_out_margins(
         return f"a shape has {int(counts.min())} grasp(s): none can be held out"
     out_margin = np.empty(len(y))
     out_right = np.empty(len(y), dtype=bool)
-    splitter = StratifiedKFold(n_splits=k, shuffle=True, random_state=seed)
+    parts = group_split(y, groups, k, seed)
+    if parts is None:
+        parts = list(StratifiedKFold(n_splits=k, shuffle=True, random_state=seed).split(x, y))
+    k = len(parts)
     from ..console import tick
 
-    for fold, (train_idx, test_idx) in enumerate(splitter.split(x, y)):
+    for fold, (train_idx, test_idx) in enumerate(parts):
         tick("doubt calibration folds", fold, k)
         if len(np.unique(y[train_idx])) < 2:
             return "a fold holds a single shape"
@@ -268,13 +275,14 @@ def calibrate_margin(
     records: Sequence | None = None,
     classifier: str = "",
     names: Callable[[Sequence, Sequence[str]], np.ndarray] | None = None,
+    groups: np.ndarray | None = None,
 ) -> dict[str, Any]:
     """The model file's ``info["doubt"]``: ``margin`` (the threshold, None when it could not
     be calibrated, with ``reason``), ``cross_check`` (``"shape-fit"`` or None: given the
     training ``records`` and a model the shape fit can second), the held-out figures it was
     set on, and how. ``names(records, classes)`` reads the shape fit's answers (default
     :func:`cross_check_names`; a caller that has read them already passes its cache)."""
-    found = held_out_margins(make, x, y, folds, seed)
+    found = held_out_margins(make, x, y, folds, seed, groups)
     doc: dict[str, Any] = {"false_alarm": float(false_alarm), "folds": int(folds),
                            "cross_check": None}  # fmt: skip
     if isinstance(found, str):
@@ -320,9 +328,12 @@ def model_doubt(
     """A trained model's ``info["doubt"]``: the margin calibrated on held-out folds of its
     training features ``x``, seconded by the shape fit (read on ``records``) or, for a model
     fitted with the user's ``known`` grasps, by them (:func:`with_known_check`)."""
+    from .novelty import grasp_groups
+
+    groups = grasp_groups(records) if records is not None else None
     if known is not None:
-        return with_known_check(calibrate_margin(make, x, y), known)
-    return calibrate_margin(make, x, y, records=records, classifier=classifier)
+        return with_known_check(calibrate_margin(make, x, y, groups=groups), known)
+    return calibrate_margin(make, x, y, records=records, classifier=classifier, groups=groups)
 
 
 def with_known_check(calibration: dict[str, Any], known: KnownGrasps) -> dict[str, Any]:

@@ -54,10 +54,11 @@ class Novelty:
     @classmethod
     def fit(
         cls, x: np.ndarray, y: np.ndarray | None = None, rate: float = UNKNOWN_RATE,
-        folds: int = FOLDS, seed: int = 0,
+        folds: int = FOLDS, seed: int = 0, groups: np.ndarray | None = None,
     ) -> Novelty:  # fmt: skip
         """Scale from ``x`` (n, d), threshold from its held-out folds (stratified by ``y``
-        where given, so each fold keeps every shape)."""
+        where given, so each fold keeps every shape; ``groups``: rows that are copies of one
+        grasp, such as noise-aware training's, held out together)."""
         x = np.asarray(x, dtype=float)
         if x.ndim != 2 or len(x) < 2 * (K + 1):
             raise ValueError(f"novelty needs at least {2 * (K + 1)} training grasps")
@@ -69,7 +70,7 @@ class Novelty:
                     else 1.0)  # fmt: skip
         scale = np.where(scale > _FLOOR, scale, floor)
         z = (x - centre) / scale
-        held = _held_out(z, y, folds, seed)
+        held = _held_out(z, y, folds, seed, groups)
         threshold = float(np.quantile(held, 1.0 - rate, method="higher"))
         rng = np.random.default_rng(seed)
         keep = np.sort(rng.choice(len(z), MAX_REFERENCE, replace=False)) if len(z) > \
@@ -135,13 +136,18 @@ def _knn_distance(z: np.ndarray, reference: np.ndarray, k: int) -> np.ndarray:
     return out
 
 
-def _held_out(z: np.ndarray, y: np.ndarray | None, folds: int, seed: int) -> np.ndarray:
-    """Each row's distance to the other folds' rows."""
+def _held_out(z: np.ndarray, y: np.ndarray | None, folds: int, seed: int,
+              groups: np.ndarray | None = None) -> np.ndarray:  # fmt: skip
+    """Each row's distance to the other folds' rows (rows of one group, copies of one grasp,
+    held out together: a copy left in the reference would be its own nearest neighbour)."""
     from sklearn.model_selection import KFold, StratifiedKFold
 
     n = len(z)
     folds = max(2, min(int(folds), n // (K + 1)))
-    if y is not None:
+    split = group_split(y, groups, folds, seed)
+    if split is not None:
+        parts = split
+    elif y is not None:
         labels = np.asarray(y).astype(str)
         _, counts = np.unique(labels, return_counts=True)
         if counts.min() >= folds:
@@ -155,3 +161,40 @@ def _held_out(z: np.ndarray, y: np.ndarray | None, folds: int, seed: int) -> np.
     for train_idx, test_idx in parts:
         out[test_idx] = _knn_distance(z[test_idx], z[train_idx], K)
     return out
+
+
+def group_split(y, groups, folds: int, seed: int):
+    """Folds that keep each group whole (stratified by ``y`` where given), or None where no
+    group holds two rows (then the callers' own splits stand, unchanged)."""
+    if groups is None:
+        return None
+    groups = np.asarray(groups)
+    if len(np.unique(groups)) == len(groups):
+        return None
+    from sklearn.model_selection import GroupKFold, StratifiedGroupKFold
+
+    n_groups = len(np.unique(groups))
+    folds = max(2, min(int(folds), n_groups))
+    dummy = np.zeros(len(groups))
+    if y is not None:
+        labels = np.asarray(y).astype(str)
+        splitter = StratifiedGroupKFold(folds, shuffle=True, random_state=seed)
+        return list(splitter.split(dummy, labels, groups))
+    return list(GroupKFold(folds).split(dummy, groups=groups))
+
+
+def grasp_groups(records) -> np.ndarray | None:
+    """One id per distinct grasp: records made from the same grasp (a shape, its sizes, pose,
+    seed and controller; noise-aware training's perturbed copies) share it."""
+    import json
+
+    from ..records import controller_dict
+
+    keys = {}
+    out = []
+    for r in records:
+        key = json.dumps([r.shape, r.params, getattr(r, "pose", None), getattr(r, "seed", None),
+                          controller_dict(r.controller) if r.controller else None],
+                         sort_keys=True, default=str)  # fmt: skip
+        out.append(keys.setdefault(key, len(keys)))
+    return np.asarray(out)

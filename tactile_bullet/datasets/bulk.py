@@ -61,6 +61,11 @@ def simulate_many(
         with ctx.Pool(workers) as pool:
             stream = pool.imap(_simulate, specs, chunksize=2)
             results = list(progress(stream, len(specs), desc, show))
+            # let the workers leave on their own: the pool's exit terminates them, which can
+            # hang when its handler thread starts a replacement worker meanwhile (seen once in
+            # CI: a worker left waiting on the task queue's lock, joined forever)
+            pool.close()
+            pool.join()
     records = [r for r in results if isinstance(r, GraspRecord)]
     failures = [r for r in results if not isinstance(r, GraspRecord)]
     return records, failures

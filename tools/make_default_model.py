@@ -6,8 +6,9 @@ the matrix's cache, so the shipped model is the one the matrix scored), calibrat
 and novelty, and writes ``tactile_bullet/data/default_model.npz`` with
 ``default_model.json`` beside it (the method, its figures in every column, the matrix's
 command and the model's sha256, which the package checks before using it), and
-``default_training.npz``: the training grasps' features and labels (``adapt``'s
-``default-shifted`` way refits on them; a knn keeps them itself, an svm does not).
+``default_training.npz``: the training grasps' features and labels, without a noise-aware
+training's noisy copies (``adapt``'s ``default-shifted`` way refits on them for every fold;
+a knn keeps them itself, an svm does not).
 
 Usage: python tools/make_default_model.py --matrix OUT [--cache OUT/data] [--no-write]
 """
@@ -63,9 +64,14 @@ def main() -> None:
     training = DATA / TRAINING_FILE
     import numpy as np
 
+    grasps = records  # the grasps themselves: a noise-aware training's copies left out
+    if best["training"] in R.NOISE_AWARE:
+        from tactile_bullet.learn.robust import AUGMENT_COPIES
+
+        grasps = records[: len(records) // (1 + AUGMENT_COPIES)]
     with open(training, "wb") as fh:
-        np.savez_compressed(fh, features=np.asarray(model.features(records), dtype=float),
-                            labels=np.array([str(r.shape) for r in records]))  # fmt: skip
+        np.savez_compressed(fh, features=np.asarray(model.features(grasps), dtype=float),
+                            labels=np.array([str(r.shape) for r in grasps]))  # fmt: skip
     replicate = int(doc["config"].get("replicate", 0))
     meta = {
         "method": best["method"], "descriptor": best["descriptor"], "params": best["params"],

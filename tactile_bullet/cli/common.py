@@ -222,7 +222,7 @@ def count(lo: int, hi: int | None = None):
         try:
             value = int(text)
         except ValueError:
-            raise argparse.ArgumentTypeError(f"must be an integer, got {text!r}") from None
+            raise argparse.ArgumentTypeError(f"must be a whole number, got {text!r}") from None
         if value < lo or (hi is not None and value > hi):
             bound = f"at least {lo}" if hi is None else f"from {lo} to {hi}"
             raise argparse.ArgumentTypeError(f"must be {bound}, got {value}")

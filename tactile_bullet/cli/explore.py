@@ -9,6 +9,7 @@ from ..errors import UsageError
 from .common import (
     add_engine_flag,
     add_force_flag,
+    count,
     emit_json,
     engine_settings,
     image_file,
@@ -40,7 +41,7 @@ def add_parser(sub) -> None:
         "default 0)",
     )
     parser.add_argument(
-        "--max-grasps", type=_grasps, default=3, metavar="K", help="at most K grasps (default 3)"
+        "--max-grasps", type=count(1), default=3, metavar="K", help="at most K grasps (default 3)"
     )
     parser.add_argument(
         "--strategy", choices=("planned", "random", "repeat"), default="planned",
@@ -58,16 +59,6 @@ def add_parser(sub) -> None:
     add_engine_flag(parser, hand_model=True)
     parser.add_argument("--json", action="store_true", help="print one JSON document")
     parser.set_defaults(run=run)
-
-
-def _grasps(text: str) -> int:
-    try:
-        value = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"must be a whole number, got {text!r}") from None
-    if value < 1:
-        raise argparse.ArgumentTypeError(f"must be at least 1, got {value}")
-    return value
 
 
 def run(args: argparse.Namespace) -> int:

@@ -124,13 +124,16 @@ def train(
         from ..learn.doubt import KnownGrasps
 
         reference = KnownGrasps.from_records(_checked(known, "known"))
+    from ..learn.novelty import grasp_groups
+
+    groups = grasp_groups(records)  # noise-aware copies of a grasp held out together
     if doubt:
         from ..learn.doubt import model_doubt
 
         # the ambiguity threshold, set on grasps each held out of a fit (learn/doubt.py)
         make = lambda: _estimator(classifier, params)  # noqa: E731
-        info["doubt"] = model_doubt(make, x, y, records, classifier, reference)
-    novelty = _novelty(x, y, records)
+        info["doubt"] = model_doubt(make, x, y, records, classifier, reference, groups)
+    novelty = _novelty(x, y, groups)
     if novelty is not None:
         info["novelty"] = novelty.summary()
     return Model(
@@ -145,14 +148,14 @@ def train(
     )
 
 
-def _novelty(x: np.ndarray, y: np.ndarray, records=None):
+def _novelty(x: np.ndarray, y: np.ndarray, groups: np.ndarray | None = None):
     """The model's :class:`~tactile_bullet.learn.novelty.Novelty` (answers ``unknown`` where a
     grasp lies far from every training grasp), None where too few grasps calibrate it;
-    ``records``: copies of one grasp among them are held out together."""
-    from ..learn.novelty import Novelty, grasp_groups
+    ``groups``: copies of one grasp held out together."""
+    from ..learn.novelty import Novelty
 
     try:
-        return Novelty.fit(x, y, groups=None if records is None else grasp_groups(records))
+        return Novelty.fit(x, y, groups=groups)
     except ValueError:
         return None
 

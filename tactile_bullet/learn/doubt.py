@@ -323,14 +323,12 @@ def calibrate_margin(
 
 def model_doubt(
     make: Callable[[], Any], x: np.ndarray, y: np.ndarray, records: Sequence | None,
-    classifier: str, known: KnownGrasps | None = None,
+    classifier: str, known: KnownGrasps | None = None, groups: np.ndarray | None = None,
 ) -> dict[str, Any]:  # fmt: skip
     """A trained model's ``info["doubt"]``: the margin calibrated on held-out folds of its
-    training features ``x``, seconded by the shape fit (read on ``records``) or, for a model
-    fitted with the user's ``known`` grasps, by them (:func:`with_known_check`)."""
-    from .novelty import grasp_groups
-
-    groups = grasp_groups(records) if records is not None else None
+    training features ``x`` (``groups``: copies of one grasp held out together), seconded by
+    the shape fit (read on ``records``) or, for a model fitted with the user's ``known``
+    grasps, by them (:func:`with_known_check`)."""
     if known is not None:
         return with_known_check(calibrate_margin(make, x, y, groups=groups), known)
     return calibrate_margin(make, x, y, records=records, classifier=classifier, groups=groups)

@@ -13,6 +13,8 @@ from typing import Any
 
 import numpy as np
 
+from .rows import feature_rows
+
 CHUNK = 1024
 """Query rows per distance block: bounds memory at CHUNK x n_train floats."""
 
@@ -97,13 +99,7 @@ class NeighbourVote:
         return {"n_neighbors": self.n_neighbors, "weights": self.weights}
 
     def predict_proba(self, X) -> np.ndarray:
-        X = np.asarray(X, dtype=float)
-        if X.ndim != 2 or X.shape[1] != self.n_features_in_:
-            raise ValueError(
-                f"X has shape {X.shape}; this knn reads rows of {self.n_features_in_} features"
-            )
-        if not np.all(np.isfinite(X)):
-            raise ValueError("X holds NaN or infinity")
+        X = feature_rows(X, self.n_features_in_, "knn")
         Z = (X - self.mean_) / self.scale_
         return vote(Z, self.train_, self.y_index_, len(self.classes_), self.n_neighbors,
                     self.weights)  # fmt: skip

@@ -17,6 +17,8 @@ from typing import Any
 
 import numpy as np
 
+from .rows import feature_rows
+
 _F64, _I32 = np.dtype(np.float64), np.dtype(np.int32)
 SVC_ARRAYS: dict[str, np.dtype] = {
     "class_weight_": _F64, "classes_": np.dtype(np.intp), "support_": _I32,
@@ -287,13 +289,7 @@ class SVMVote:
         return votes + confidence / (3.0 * (np.abs(confidence) + 1.0))
 
     def predict_proba(self, X) -> np.ndarray:
-        X = np.asarray(X, dtype=float)
-        if X.ndim != 2 or X.shape[1] != self.n_features_in_:
-            raise ValueError(
-                f"X has shape {X.shape}; this svm reads rows of {self.n_features_in_} features"
-            )
-        if not np.all(np.isfinite(X)):
-            raise ValueError("X holds NaN or infinity")
+        X = feature_rows(X, self.n_features_in_, "svm")
         return platt_proba(self.decision_function((X - self.mean_) / self.scale_), self.platt_)
 
     def predict(self, X) -> np.ndarray:

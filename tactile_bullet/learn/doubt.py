@@ -158,20 +158,23 @@ def cross_check_applies(classes: Sequence[str], classifier: str) -> bool:
 def cross_check_names(records: Sequence, classes: Sequence[str]) -> np.ndarray:
     """The shape fit's answer among ``classes`` for each record ('' where it cannot read one),
     each read as the coefficients in force were fitted (:func:`.robust.angles_for_shape_fit`)."""
-    from ..console import tick
     from ..errors import UsageError
-    from ..perception.shape_fit import fit_shape
+    from ..perception.fit_batch import fit_many
     from .robust import angles_for_shape_fit
 
     families = [str(c) for c in classes]
-    out = []
-    for done, rec in enumerate(records, 1):
-        try:  # fit_shape keeps each grasp's fit: asked again (another fold), it is not redone
-            out.append(fit_shape(angles_for_shape_fit(rec), families).shape)
-        except UsageError:
-            out.append("")
-        tick("shape fit (second opinion)", done, len(records))
-    return np.array(out, dtype=object).astype(str)
+    angles, readable = [], []
+    for i, rec in enumerate(records):
+        try:
+            angles.append(angles_for_shape_fit(rec))
+            readable.append(i)
+        except UsageError:  # no angles to read: no second opinion
+            pass
+    out = np.full(len(records), "", dtype=object)
+    # each grasp's fit is kept: asked again (another fold), it is not redone
+    fits = fit_many(angles, families, desc="shape fit (second opinion)")
+    out[readable] = [fit.shape for fit in fits]
+    return out.astype(str)
 
 
 def margins(proba: np.ndarray, decided: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

@@ -483,17 +483,41 @@ def fit_shape(
     if not names:
         raise UsageError("shape-fit needs at least one shape family")
     cal = active_calibration() if calibration is None else calibration
-    key = (measured.tobytes(), tuple(names), id(cal))
-    hit = _FITS.get(key)
-    if hit is not None and hit[0] is cal:
-        _FITS.move_to_end(key)
-        return hit[1]
+    hit = cached_fit(measured, names, cal, features=True)
+    if hit is not None:
+        return hit
     fits = _fit(measured, [_resolve_family(n) for n in names], cal)
     out = ShapeFit(min(fits, key=lambda n: fits[n].score), fits)
-    _FITS[key] = (cal, out)
+    return keep_fit(measured, names, cal, out, features=True)
+
+
+def _key(angles, families: Sequence[str], cal: Calibration, features: bool) -> tuple:
+    measured = angles if features else measured_features(angles)
+    return (measured.tobytes(), tuple(dict.fromkeys(families)), id(cal))
+
+
+def cached_fit(
+    angles, families: Sequence[str], cal: Calibration, features: bool = False
+) -> ShapeFit | None:
+    """The fit :func:`fit_shape` keeps for final angles (3, 4) (or, ``features``, their
+    measured features), ``families`` and ``cal``; None where it has none."""
+    key = _key(angles, families, cal, features)
+    hit = _FITS.get(key)
+    if hit is None or hit[0] is not cal:
+        return None
+    _FITS.move_to_end(key)
+    return hit[1]
+
+
+def keep_fit(
+    angles, families: Sequence[str], cal: Calibration, fit: ShapeFit, features: bool = False
+) -> ShapeFit:
+    """Keep ``fit`` as :func:`fit_shape`'s answer for these angles, families and coefficients
+    (a fit computed elsewhere: another process of :mod:`.fit_batch`); returns it."""
+    _FITS[_key(angles, families, cal, features)] = (cal, fit)
     if len(_FITS) > FIT_CACHE:
         _FITS.popitem(last=False)
-    return out
+    return fit
 
 
 FIT_CACHE = 8192

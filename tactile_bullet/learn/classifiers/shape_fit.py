@@ -108,19 +108,15 @@ class ShapeFitClassifier(ClassifierMixin, BaseEstimator):
         """(n, n_classes) penalised fit scores (lower is better)."""
         check_is_fitted(self)
         X = validate_data(self, X, reset=False)
-        from ...perception import shape_fit
+        from ...perception.fit_batch import fit_many
 
         cols = _fci_columns(X.shape[1])
         names = [str(c) for c in self.classes_]
-        out = np.empty((len(X), len(names)))
-        from ...console import tick
-
-        for row, x in enumerate(X):
-            # cached per grasp: predict, then proba
-            fits = shape_fit.fit_shape(x[cols], names, self.calibration_).fits
-            out[row] = [fits[n].score for n in names]
-            tick("shape fits", row + 1, len(X))
-        return out
+        # kept per grasp: predict, then proba
+        fits = fit_many([x[cols] for x in X], names, self.calibration_)
+        return np.array([[fit.fits[n].score for n in names] for fit in fits]).reshape(
+            len(X), len(names)
+        )
 
     def predict_proba(self, X) -> np.ndarray:
         s = self.scores(X)

@@ -1,0 +1,109 @@
+"""Many grasps' shape fits at once, on every core this process may use.
+
+``evaluate`` and ``train`` fit every grasp once as the answers' second opinion (the doubt
+cross-check) or as the classifier itself, one after another: 90% of an ``evaluate`` of a
+162-grasp set was these fits, on one core of two. The fits are independent and deterministic,
+so they are split across forked worker processes and come back equal to the ones this process
+would compute; each is kept in :mod:`.shape_fit`'s in-memory cache, so the code that asks for
+them one by one afterwards (``predict`` then ``predict_proba``, the calibration's folds) reads
+them back instead of fitting again.
+
+Workers are only forked where that is safe and worth it: on a platform with ``fork``, from a
+process running no other thread and not itself a pool's daemon worker, for at least
+:data:`MIN_PARALLEL` fits not already cached. Elsewhere the fits run here, as before.
+"""
+
+from __future__ import annotations
+
+import multiprocessing
+import os
+import threading
+from collections.abc import Sequence
+from concurrent.futures import ProcessPoolExecutor
+
+import numpy as np
+
+from ..console import tick
+from .family_fit import ShapeFit, measured_features
+from .shape_fit import cached_fit, fit_shape, keep_fit
+from .shape_model import Calibration, active_calibration
+
+MIN_PARALLEL = 32
+"""Fewest uncached fits worth forking for: a fit is ~20 ms, forking a worker a few ms, and a
+short batch split in two gains less than that."""
+
+CHUNK = 16
+"""Fits per task handed to a worker: small enough that progress moves every ~0.3 s and the
+last tasks of the two workers end close together."""
+
+_JOB: tuple[tuple[str, ...], Calibration] | None = None
+"""The families and coefficients of the batch being fitted, set before the workers fork (they
+inherit it, so the grids and the coefficients are not pickled per task)."""
+
+
+def usable_cores() -> int:
+    """Cores this process may run on (its affinity where the platform says, else all)."""
+    try:
+        return len(os.sched_getaffinity(0))
+    except AttributeError:  # macOS, Windows
+        return os.cpu_count() or 1
+
+
+def _can_fork() -> bool:
+    return (
+        "fork" in multiprocessing.get_all_start_methods()
+        and threading.active_count() == 1
+        and not multiprocessing.current_process().daemon
+    )
+
+
+def _fit_chunk(rows: np.ndarray) -> list[ShapeFit]:
+    families, cal = _JOB
+    return [fit_shape(a, families, cal) for a in rows]
+
+
+def fit_many(
+    angles: Sequence,
+    families: Sequence[str],
+    calibration: Calibration | None = None,
+    desc: str = "shape fits",
+    workers: int | None = None,
+) -> list[ShapeFit]:
+    """:func:`.shape_fit.fit_shape` of each (3, 4) final angles in ``angles``, in order, the
+    uncached ones split over ``workers`` processes (default: :func:`usable_cores`). Every fit
+    is equal to the one ``fit_shape`` gives in this process, and is cached as it would be.
+    Progress is reported as ``desc``."""
+    global _JOB
+    names = tuple(dict.fromkeys(str(f) for f in families))
+    cal = active_calibration() if calibration is None else calibration
+    rows = [np.asarray(a, dtype=float) for a in angles]
+    for a in rows:
+        measured_features(a)  # bad angles fail here, in this process, as fit_shape would
+    out: list[ShapeFit | None] = [cached_fit(a, names, cal) for a in rows]
+    todo = [i for i, fit in enumerate(out) if fit is None]
+    workers = usable_cores() if workers is None else workers
+    workers = min(workers, -(-len(todo) // CHUNK))
+    done = len(rows) - len(todo)
+    if len(todo) >= MIN_PARALLEL and workers > 1 and _can_fork():
+        first = todo.pop(0)  # fitted here first: the grids are built before the fork
+        out[first] = fit_shape(rows[first], names, cal)
+        done += 1
+        chunks = [todo[k : k + CHUNK] for k in range(0, len(todo), CHUNK)]
+        _JOB = (names, cal)
+        pool = ProcessPoolExecutor(workers, mp_context=multiprocessing.get_context("fork"))
+        try:
+            results = pool.map(_fit_chunk, [np.stack([rows[i] for i in c]) for c in chunks])
+            for chunk, fits in zip(chunks, results, strict=True):
+                for i, fit in zip(chunk, fits, strict=True):
+                    out[i] = keep_fit(rows[i], names, cal, fit)
+                done += len(chunk)
+                tick(desc, done, len(rows))
+        finally:
+            _JOB = None
+            pool.shutdown(wait=True, cancel_futures=True)
+        return out  # type: ignore[return-value]
+    for i in todo:
+        out[i] = fit_shape(rows[i], names, cal)
+        done += 1
+        tick(desc, done, len(rows))
+    return out  # type: ignore[return-value]

@@ -1,0 +1,98 @@
+"""Many shape fits at once (perception/fit_batch.py): split over forked workers, every fit is
+the one this process would compute, kept in the fit cache, and bad input fails before any
+worker starts."""
+
+from __future__ import annotations
+
+import threading
+
+import numpy as np
+import pytest
+
+from tactile_bullet.errors import UsageError
+from tactile_bullet.perception import fit_batch, shape_fit
+from tactile_bullet.perception.shape_model import active_calibration
+
+FAMILIES = ("cylinder", "sphere", "torus", "cone", "hyperboloid")
+
+
+def _angles(n: int, seed: int = 3) -> list[np.ndarray]:
+    """Model angles of random thesis-shape sizes and poses, with 1 deg of noise."""
+    rng = np.random.default_rng(seed)
+    table = {s.name: s for s in shape_fit.BUILTIN_SHAPES}
+    out = []
+    while len(out) < n:
+        spec = table[FAMILIES[len(out) % len(FAMILIES)]]
+        sizes = {k: rng.uniform(p.min, p.max) for k, p in spec.params.items()}
+        try:
+            pred = shape_fit.predicted_angles(
+                spec.name, sizes, tuple(rng.uniform(-0.01, 0.01, 2)),
+                rotation_deg=rng.uniform(-20, 20),
+            )  # fmt: skip
+        except UsageError:  # sizes that make no such solid
+            continue
+        pred = pred + rng.normal(0.0, np.radians(1.0), pred.shape)
+        out.append(np.stack([pred[0], 0.5 * pred[1], 0.5 * pred[1]]))
+    return out
+
+
+def _summaries(fits) -> list:
+    return [(f.shape, [(n, x.score, x.params, x.offset, x.rotation_deg) for n, x in
+                       f.fits.items()]) for f in fits]  # fmt: skip
+
+
+@pytest.fixture()
+def fresh_cache(monkeypatch):
+    monkeypatch.setattr(shape_fit, "_FITS", type(shape_fit._FITS)())
+
+
+def test_fits_split_over_workers_equal_the_fits_made_here(fresh_cache):
+    angles = _angles(fit_batch.MIN_PARALLEL + 8)
+    assert fit_batch._can_fork(), "this test needs fork (Linux, one thread)"
+    parallel = fit_batch.fit_many(angles, FAMILIES, workers=2)
+    shape_fit._FITS.clear()
+    here = [shape_fit.fit_shape(a, FAMILIES) for a in angles]
+    assert _summaries(parallel) == _summaries(here)
+
+
+def test_fits_made_by_workers_are_kept_for_the_next_ask(fresh_cache):
+    angles = _angles(fit_batch.MIN_PARALLEL)
+    fits = fit_batch.fit_many(angles, FAMILIES, workers=2)
+    cal = active_calibration()
+    for a, fit in zip(angles, fits, strict=True):
+        assert shape_fit.cached_fit(a, FAMILIES, cal) is fit
+        assert shape_fit.fit_shape(a, FAMILIES) is fit  # read back, not fitted again
+
+
+def test_a_threaded_process_fits_here_and_gets_the_same_answers(fresh_cache):
+    angles = _angles(fit_batch.MIN_PARALLEL)
+    expected = _summaries(fit_batch.fit_many(angles, FAMILIES, workers=1))
+    shape_fit._FITS.clear()
+    got = {}
+
+    def run():
+        got["fits"] = fit_batch.fit_many(angles, FAMILIES, workers=2)
+
+    stop = threading.Event()
+    idle = threading.Thread(target=stop.wait)  # a second thread: forking is not safe
+    idle.start()
+    try:
+        assert not fit_batch._can_fork()
+        run()
+    finally:
+        stop.set()
+        idle.join()
+    assert _summaries(got["fits"]) == expected
+
+
+def test_bad_angles_fail_before_any_fit(fresh_cache):
+    angles = _angles(fit_batch.MIN_PARALLEL)
+    angles[-1] = np.full((3, 4), np.nan)
+    with pytest.raises(UsageError, match="NaN"):
+        fit_batch.fit_many(angles, FAMILIES, workers=2)
+    assert len(shape_fit._FITS) == 0
+
+
+def test_an_unknown_family_is_a_usage_error(fresh_cache):
+    with pytest.raises(UsageError, match="no model of shape 'prism'"):
+        fit_batch.fit_many(_angles(fit_batch.MIN_PARALLEL), ("sphere", "prism"), workers=2)

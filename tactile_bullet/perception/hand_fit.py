@@ -35,6 +35,7 @@ import numpy as np
 
 from ..errors import UsageError
 from ..objects.shapes import check_consistent
+from .fit_batch import fit_many
 from .shape_fit import (
     OFFSET_STEPS,
     OFFSET_X,
@@ -228,9 +229,9 @@ def _held_out(measured, shapes, families, cal: Calibration) -> tuple[int, float]
     """(right answers, summed clipped margin) of ``cal`` on grasps it was not fitted to: the
     margin is how far the best other family's score lies above the labelled one's."""
     right, margin = 0, 0.0
-    for m, s in zip(measured, shapes, strict=True):
-        angles = np.stack([m[0], m[1], np.zeros(4)])
-        fit = fit_shape(angles, families, cal)
+    angles = [np.stack([m[0], m[1], np.zeros(4)]) for m in measured]
+    fits = fit_many(angles, families, cal, desc="shape fits (held-out grasps)")
+    for fit, s in zip(fits, shapes, strict=True):
         right += fit.shape == s
         other = min(f.score for name, f in fit.fits.items() if name != s)
         margin += float(np.clip(other - fit.fits[s].score, -MARGIN_CLIP, MARGIN_CLIP))

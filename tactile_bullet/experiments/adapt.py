@@ -242,8 +242,8 @@ def _known_fit_angles(known: Sequence) -> np.ndarray:
 
 def _calibrated_shape_fit_way(known: Sequence, y: np.ndarray) -> Way | str:
     """The calibrated shape fit as a way, or why it does not apply."""
-    from ..perception.hand_fit import fit_hand
     from ..perception.fit_batch import fit_many
+    from ..perception.hand_fit import fit_hand
     from ..perception.shape_fit import fitted_shapes
 
     alien = sorted(set(y.tolist()) - set(fitted_shapes()))

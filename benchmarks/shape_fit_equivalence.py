@@ -13,7 +13,7 @@ score and of every family's score, the accuracy of each on the datasets' grasps,
 time per grasp of each (measured alternately, grids built and cached before timing).
 
 Usage: python benchmarks/shape_fit_equivalence.py [--ref COMMIT] [--data DIR] [--limit N]
-[--no-grid]
+[--no-grid] [--every N] [--set NAME=VALUE ...]
 """
 
 from __future__ import annotations
@@ -37,6 +37,7 @@ SIZE_FRACTIONS = (0.0, 0.25, 0.5, 0.75, 1.0)
 OFFSETS = (-0.01, 0.0, 0.01)
 ROTATIONS_DEG = (-20.0, -10.0, 0.0, 10.0, 20.0)
 NOISE_RAD = np.radians(1.0)
+SEARCH_CONSTANTS = ("REFINE_ROUNDS", "POLISH_STEPS", "STARTS", "REFINE_MARGIN")
 
 
 def _load(commit: str, path: str, name: str, edit=lambda src: src) -> types.ModuleType:
@@ -175,9 +176,19 @@ def main(argv=None) -> int:
     ap.add_argument("--data", action="append", default=[], help="a simulated dataset (repeatable)")
     ap.add_argument("--limit", type=int, default=None, help="at most N grasps per dataset")
     ap.add_argument("--no-grid", action="store_true", help="skip the model-angle grid")
-    ap.add_argument("--every", type=int, default=1, help="every Nth point of the grid only")
+    ap.add_argument("--every", type=int, default=1,
+                    help="every Nth grasp of the grid and of each dataset only")
+    ap.add_argument("--set", action="append", default=[], metavar="NAME=VALUE",
+                    help="a search constant of the working tree's shape_fit.py changed for this "
+                    "run (REFINE_ROUNDS, POLISH_STEPS, STARTS, REFINE_MARGIN): a variant "
+                    "measured without editing the file")
     args = ap.parse_args(argv)
     provenance(argv)
+    for item in args.set:
+        name, _, value = item.partition("=")
+        if name not in SEARCH_CONSTANTS:
+            ap.error(f"--set {item}: not one of {', '.join(SEARCH_CONSTANTS)}")
+        setattr(shape_fit, name, type(getattr(shape_fit, name))(value))
     ref = reference_module(args.ref)
     for name in THESIS_SHAPES:  # grids built (or read from the cache) before any timing
         ref.fit_shape(np.full((3, 4), 0.5))
@@ -188,7 +199,7 @@ def main(argv=None) -> int:
         label = "model grid (sizes x offsets x rotations, 1 deg noise)"
         compare(ref, model_grid()[:: args.every], label)
     for path in args.data:
-        compare(ref, dataset_grasps(path, args.limit), f"dataset {path}")
+        compare(ref, dataset_grasps(path, args.limit)[:: args.every], f"dataset {path}")
     return 0
 
 

@@ -198,3 +198,33 @@ def test_a_batch_with_a_quarter_of_its_answers_ambiguous_is_warned_about():
     assert "40 of 120 answers are ambiguous" in summary_text(report)
     report["ambiguous"]["flagged"] = 0.1
     assert "answers are ambiguous" not in summary_text(report)
+
+
+def test_the_training_free_shape_fit_calibrates_its_margin_on_a_sample_of_each_shape(
+    synthetic_split, monkeypatch
+):
+    """It learns nothing from its training grasps, so `train` reads its held-out margins on a
+    per-shape sample instead of fitting every grasp (4x an svm's training on the thesis
+    preset); the model says how many grasps the sample was drawn from."""
+    train, _ = synthetic_split
+    monkeypatch.setattr(doubt, "TRAINING_FREE_SAMPLES", 20)
+    fit = workflow.train(train, "raw-joints", "shape-fit")
+    cal = fit.info["doubt"]
+    assert cal["held_out"] == 20 and cal["sampled_from"] == len(train)
+    assert cal["right_flagged"] <= doubt.FALSE_ALARM + 1e-9
+    # drawn in proportion: each of the five shapes 4 times
+    keep = doubt._stratified_sample(np.array([r.shape for r in train]), 20, 0, None)
+    assert sorted(np.unique([train[i].shape for i in keep], return_counts=True)[1]) == [4] * 5
+    # a model that learns from its grasps (svm) is still calibrated on all of them
+    svm = workflow.train(train, "signature", "svm")
+    assert svm.info["doubt"]["held_out"] == len(train)
+    assert "sampled_from" not in svm.info["doubt"]
+
+
+def test_the_sample_keeps_the_noisy_copies_of_a_grasp_together():
+    shapes = np.array(["cone", "sphere", "torus"] * 10)
+    y, groups = np.repeat(shapes, 4), np.repeat(np.arange(30), 4)  # 4 copies of 30 grasps
+    keep = doubt._stratified_sample(y, 48, 0, groups)
+    chosen, copies = np.unique(groups[keep], return_counts=True)
+    assert len(chosen) == 12 and set(copies) == {4}
+    assert sorted(np.unique(shapes[chosen], return_counts=True)[1]) == [4, 4, 4]

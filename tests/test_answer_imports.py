@@ -159,6 +159,7 @@ def test_a_shape_fit_model_saves_without_skops_and_refuses_a_damaged_state(tmp_p
     from tactile_bullet.learn.classifiers.shape_fit import ShapeFitClassifier
     from tactile_bullet.learn.descriptors import raw_joint_names
     from tactile_bullet.learn.models import Model
+    from tactile_bullet.learn.shape_fit_vote import ShapeFitVote
 
     n = len(raw_joint_names(False))
     est = plugins.get_classifier("shape-fit").fit(np.zeros((4, n)), ["cone", "torus"] * 2)
@@ -166,12 +167,45 @@ def test_a_shape_fit_model_saves_without_skops_and_refuses_a_damaged_state(tmp_p
     with np.load(path) as data:
         assert "estimator_skops" not in data.files
     loaded = load_model(path).estimator
-    assert type(loaded) is ShapeFitClassifier and list(loaded.classes_) == ["cone", "torus"]
+    assert type(loaded) is ShapeFitVote and list(loaded.classes_) == ["cone", "torus"]
+    assert loaded.to_state()[0] == est.to_state()[0]  # it saves itself as it was loaded
     state, arrays = est.to_state()
     for bad_state, bad_arrays, message in [
-        ({**state, "params": {"temperature": -1.0}}, arrays, "temperature"),
+        ({**state, "params": {"temperature": -1.0, "calibration": None}}, arrays, "temperature"),
         ({**state, "n_features_in": 5}, arrays, "columns"),
         (state, {"classes": np.array(["cone", "teapot"])}, "teapot"),
+        ({**state, "params": {"temperature": 1.0, "calibration": {"gain": 2}}}, arrays,
+         "calibration"),
     ]:
-        with pytest.raises(ValueError, match=message):
-            ShapeFitClassifier.from_state(bad_state, bad_arrays)
+        for kind in (ShapeFitClassifier, ShapeFitVote):  # the estimator and its loaded form
+            with pytest.raises(ValueError, match=message):
+                kind.from_state(bad_state, bad_arrays)
+
+
+def test_a_saved_shape_fit_model_answers_as_fitted_and_without_scikit_learn(tmp_path):
+    from tactile_bullet.learn.descriptors import raw_joint_names
+    from tactile_bullet.learn.models import Model
+    from tactile_bullet.perception.shape_fit import predicted_angles
+
+    names = raw_joint_names(False)
+    rows = []
+    for shape, params in [("sphere", {"radius": 0.05}), ("cylinder", {"radius": 0.03})]:
+        j3, j0 = predicted_angles(shape, params)
+        row = np.zeros(len(names))
+        for k, f in enumerate(("FF", "MF", "RF", "LF")):
+            row[names.index(f"{f}J3")], row[names.index(f"{f}J2")] = j3[k], j0[k] / 2
+            row[names.index(f"{f}J1")] = j0[k] / 2
+        rows.append(row)
+    x = np.array(rows)
+    est = plugins.get_classifier("shape-fit").fit(x, ["sphere", "cylinder"])
+    path = save_model(tmp_path / "m.npz", Model("raw-joints", {}, "shape-fit", {}, est))
+    np.testing.assert_array_equal(load_model(path).estimator.predict_proba(x),
+                                  est.predict_proba(x))  # fmt: skip
+    out = _fresh(
+        "import sys, numpy as np\n"
+        "from tactile_bullet.learn.models import load_model\n"
+        f"m = load_model({str(path)!r})\n"
+        f"print(*m.estimator.predict(np.array({x.tolist()!r})), type(m.estimator).__name__, "
+        "'sklearn' in sys.modules)\n"
+    )
+    assert out.split() == ["sphere", "cylinder", "ShapeFitVote", "False"]

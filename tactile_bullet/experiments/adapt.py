@@ -233,11 +233,11 @@ def candidate_ways(
 def _known_fit_angles(known: Sequence) -> np.ndarray:
     """(n, 3, 4) J3, J2, J1 per long finger of each known grasp, read from the ``raw-joints``
     columns as the shape-fit classifier reads them."""
-    from ..learn.classifiers.shape_fit import _fci_columns
+    from ..learn.shape_fit_vote import fci_columns
     from ..plugins import get_descriptor
 
     x = np.asarray(get_descriptor("raw-joints").transform(list(known)), dtype=float)
-    return x[:, _fci_columns(x.shape[1])]
+    return x[:, fci_columns(x.shape[1])]
 
 
 def _calibrated_shape_fit_way(known: Sequence, y: np.ndarray) -> Way | str:

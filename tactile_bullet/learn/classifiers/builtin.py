@@ -61,6 +61,16 @@ def shape_fit(**params):
     return ShapeFitClassifier(**params)
 
 
+def _shape_fit_vote() -> type:
+    from ..shape_fit_vote import ShapeFitVote
+
+    return ShapeFitVote
+
+
+shape_fit.fitted_form = _shape_fit_vote
+"""A saved shape-fit model loads as a ShapeFitVote: answering needs no scikit-learn."""
+
+
 def extra_trees(**params):
     """scikit-learn's extra-trees, seeded (without a seed two trainings give two models): the
     core tree ensemble, so the methods that need one do not depend on a plugin's."""

@@ -4,6 +4,8 @@ worker starts."""
 
 from __future__ import annotations
 
+import os
+import signal
 import threading
 
 import numpy as np
@@ -96,3 +98,21 @@ def test_bad_angles_fail_before_any_fit(fresh_cache):
 def test_an_unknown_family_is_a_usage_error(fresh_cache):
     with pytest.raises(UsageError, match="no model of shape 'prism'"):
         fit_batch.fit_many(_angles(fit_batch.MIN_PARALLEL), ("sphere", "prism"), workers=2)
+
+
+_PARENT = os.getpid()
+
+
+def _dying_chunk(rows):
+    """A worker's task that kills its worker (as the kernel's out-of-memory killer would)."""
+    if os.getpid() != _PARENT:
+        os.kill(os.getpid(), signal.SIGKILL)
+    return [shape_fit.fit_shape(a, FAMILIES) for a in rows]
+
+
+def test_a_worker_that_dies_leaves_its_fits_to_this_process(fresh_cache, monkeypatch):
+    angles = _angles(fit_batch.MIN_PARALLEL + 16)
+    expected = _summaries(fit_batch.fit_many(angles, FAMILIES, workers=1))
+    shape_fit._FITS.clear()
+    monkeypatch.setattr(fit_batch, "_fit_chunk", _dying_chunk)
+    assert _summaries(fit_batch.fit_many(angles, FAMILIES, workers=2)) == expected

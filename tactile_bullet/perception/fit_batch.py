@@ -20,6 +20,7 @@ import os
 import threading
 from collections.abc import Sequence
 from concurrent.futures import ProcessPoolExecutor
+from concurrent.futures.process import BrokenProcessPool
 
 import numpy as np
 
@@ -98,10 +99,12 @@ def fit_many(
                     out[i] = keep_fit(rows[i], names, cal, fit)
                 done += len(chunk)
                 tick(desc, done, len(rows))
+        except BrokenProcessPool:  # a worker died (killed, out of memory): the rest here
+            pass
         finally:
             _JOB = None
             pool.shutdown(wait=True, cancel_futures=True)
-        return out  # type: ignore[return-value]
+        todo = [i for i in todo if out[i] is None]
     for i in todo:
         out[i] = fit_shape(rows[i], names, cal)
         done += 1

@@ -8,8 +8,8 @@ would compute; each is kept in :mod:`.shape_fit`'s in-memory cache, so the code 
 them one by one afterwards (``predict`` then ``predict_proba``, the calibration's folds) reads
 them back instead of fitting again.
 
-Workers are only forked where that is safe and worth it: on a platform with ``fork``, from a
-process running no other thread and not itself a pool's daemon worker, for at least
+Workers are only forked where that is safe and worth it: on Linux, from a process running no
+other thread and not itself a pool's daemon worker, for at least
 :data:`MIN_PARALLEL` fits not already cached. Elsewhere the fits run here, as before.
 """
 
@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import multiprocessing
 import os
+import sys
 import threading
 from collections.abc import Sequence
 from concurrent.futures import ProcessPoolExecutor
@@ -51,8 +52,11 @@ def usable_cores() -> int:
 
 
 def _can_fork() -> bool:
+    """Linux only: on macOS a forked child of a process that has used the system's numerical
+    libraries can crash, and Windows has no fork."""
     return (
-        "fork" in multiprocessing.get_all_start_methods()
+        sys.platform.startswith("linux")
+        and "fork" in multiprocessing.get_all_start_methods()
         and threading.active_count() == 1
         and not multiprocessing.current_process().daemon
     )

@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import os
 import signal
+import sys
 import threading
 
 import numpy as np
@@ -48,9 +49,13 @@ def fresh_cache(monkeypatch):
     monkeypatch.setattr(shape_fit, "_FITS", type(shape_fit._FITS)())
 
 
+FORKS = pytest.mark.skipif(not sys.platform.startswith("linux"), reason="fit_many forks on Linux")
+
+
+@FORKS
 def test_fits_split_over_workers_equal_the_fits_made_here(fresh_cache):
     angles = _angles(fit_batch.MIN_PARALLEL + 8)
-    assert fit_batch._can_fork(), "this test needs fork (Linux, one thread)"
+    assert fit_batch._can_fork(), "one thread, not a daemon: fit_many forks here"
     parallel = fit_batch.fit_many(angles, FAMILIES, workers=2)
     shape_fit._FITS.clear()
     here = [shape_fit.fit_shape(a, FAMILIES) for a in angles]
@@ -110,6 +115,7 @@ def _dying_chunk(rows):
     return [shape_fit.fit_shape(a, FAMILIES) for a in rows]
 
 
+@FORKS
 def test_a_worker_that_dies_leaves_its_fits_to_this_process(fresh_cache, monkeypatch):
     angles = _angles(fit_batch.MIN_PARALLEL + 16)
     expected = _summaries(fit_batch.fit_many(angles, FAMILIES, workers=1))

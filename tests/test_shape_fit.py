@@ -9,7 +9,7 @@ import pytest
 
 from tactile_bullet import plugins
 from tactile_bullet.errors import UsageError
-from tactile_bullet.perception import shape_fit
+from tactile_bullet.perception import search_steps, shape_fit
 from tactile_bullet.perception.patterns import identify, size_matched_library
 from tactile_bullet.perception.signature import signature_from_angles
 from tactile_bullet.records import Pose
@@ -193,12 +193,23 @@ def test_shape_fit_classifier_reads_raw_joints(synthetic_split):
 
 
 def test_the_searchs_row_dedup_equals_numpys_unique():
-    """shape_fit._unique_rows replaces np.unique(axis=0) for speed: the same first indices and
+    """search_steps.unique_rows replaces np.unique(axis=0) for speed: the same first indices and
     inverse on rows with repeats, ties in leading columns and signed zeros."""
     rng = np.random.default_rng(0)
     for _ in range(200):
         a = rng.integers(-2, 3, (rng.integers(1, 60), rng.integers(1, 6))).astype(float) / 2
         _, first, inverse = np.unique(a, axis=0, return_index=True, return_inverse=True)
-        got_first, got_inverse = shape_fit._unique_rows(a)
+        got_first, got_inverse = search_steps.unique_rows(a)
         np.testing.assert_array_equal(got_first, first)
         np.testing.assert_array_equal(got_inverse, inverse.ravel())
+
+
+def test_the_polishs_batched_solve_leaves_out_only_a_singular_system():
+    rng = np.random.default_rng(1)
+    systems = rng.normal(size=(4, 3, 3)) + 3 * np.eye(3)
+    rhs = rng.normal(size=(4, 3))
+    systems[2] = 0.0  # singular
+    steps = search_steps.damped_steps(systems, rhs)
+    assert np.isnan(steps[2]).all()
+    for i in (0, 1, 3):
+        np.testing.assert_array_equal(steps[i], -np.linalg.solve(systems[i], rhs[i]))

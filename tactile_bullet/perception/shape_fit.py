@@ -32,6 +32,7 @@ from ..errors import UsageError
 from ..objects.shapes import BUILTIN_SHAPES, THESIS_SHAPES, Shape, check_consistent
 from .family_fit import FamilyFit, ShapeFit, measured_features
 from .grid_cache import grid_geometry
+from .search_steps import damped_steps, unique_rows
 from .shape_model import (
     _XF,
     Calibration,
@@ -345,24 +346,6 @@ def _predict(state, parts, cal: Calibration) -> list[np.ndarray]:
     return out
 
 
-def _unique_rows(a: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """(first, inverse) of the distinct rows of ``a`` (n, d): each distinct row's first index,
-    the distinct rows in lexicographic order, and each row's position among them; what
-    ``np.unique(a, axis=0, return_index=True, return_inverse=True)`` gives, from a sort of the
-    columns (``np.lexsort``) instead of one of the rows as opaque records, which took a sixth
-    of a fit's time."""
-    if len(a) == 0:
-        return np.zeros(0, dtype=np.intp), np.zeros(0, dtype=np.intp)
-    order = np.lexsort(a.T[::-1])  # stable: equal rows keep their order, the first one first
-    ranked = a[order]
-    new = np.empty(len(a), dtype=bool)
-    new[0] = True
-    np.any(ranked[1:] != ranked[:-1], axis=1, out=new[1:])
-    inverse = np.empty(len(a), dtype=np.intp)
-    inverse[order] = np.cumsum(new) - 1
-    return order[new], inverse
-
-
 def _shared_sections(groups: Sequence[tuple[_Family, np.ndarray]]) -> tuple[np.ndarray, ...]:
     """:func:`~.shape_model._sections` of every (family, points (n, dims)) in ``groups``,
     concatenated: the sections of each distinct (sizes, offset along O-O', rotation) computed
@@ -373,13 +356,13 @@ def _shared_sections(groups: Sequence[tuple[_Family, np.ndarray]]) -> tuple[np.n
     at = 0
     for fam, z in groups:
         key = np.delete(z, -2, axis=1)
-        first, inverse = _unique_rows(key)
+        first, inverse = unique_rows(key)
         v = fam.values(z)
         u = v[first]
         params = {k: u[:, i] for i, k in enumerate(fam.names)}
         # the nominal centre depends on the sizes and the rotation alone
         sized = np.delete(key, -2, axis=1)[first]
-        once, again = _unique_rows(sized)
+        once, again = unique_rows(sized)
         y0, z0 = nominal_centre(fam.shape, {k: p[once] for k, p in params.items()}, u[once, -1])
         y0 = y0[again.ravel()]
         values.append(v[:, -2:-1])
@@ -440,22 +423,6 @@ def _polish(measured: np.ndarray, state: list, near: list[int], cal: Calibration
                 fd[k] = p[moved[k] * n : (moved[k] + 1) * n]
 
 
-def _damped_steps(systems: np.ndarray, rhs: np.ndarray) -> np.ndarray:
-    """-solve(m, g) for every (m, g) in ``systems`` (k, d, d) and ``rhs`` (k, d), in one batched
-    call (LAPACK's solver on each matrix, as one call per matrix would run it); a singular
-    system gets NaN, the others their step all the same."""
-    try:
-        return -np.linalg.solve(systems, rhs[..., None])[..., 0]
-    except np.linalg.LinAlgError:  # one is singular: each alone, that one left out
-        out = np.full(rhs.shape, np.nan)
-        for i, (m, g) in enumerate(zip(systems, rhs, strict=True)):
-            try:
-                out[i] = -np.linalg.solve(m, g)
-            except np.linalg.LinAlgError:
-                continue
-        return out
-
-
 def _polish_trials(measured, state, near, fd, h, cal) -> list:
     """One damped Gauss-Newton step of each near start from its point's finite differences
     ``fd`` (predictions at the point and at +h along each coordinate): (start, trial points)."""
@@ -486,7 +453,7 @@ def _polish_trials(measured, state, near, fd, h, cal) -> list:
             for lam in _DAMPING:
                 systems.append(a + lam * (np.diag(np.diag(a)) + 1e-9 * np.eye(len(g))))
                 rhs.append(g)
-        steps = _damped_steps(np.stack(systems), np.stack(rhs)).reshape(n, len(_DAMPING), dims)
+        steps = damped_steps(np.stack(systems), np.stack(rhs)).reshape(n, len(_DAMPING), dims)
         for j, k in enumerate(members):
             ok = ~np.isnan(steps[j, :, 0])
             if not ok.any():

@@ -15,13 +15,10 @@ other thread and not itself a pool's daemon worker, for at least
 
 from __future__ import annotations
 
-import multiprocessing
 import os
 import sys
 import threading
 from collections.abc import Sequence
-from concurrent.futures import ProcessPoolExecutor
-from concurrent.futures.process import BrokenProcessPool
 
 import numpy as np
 
@@ -54,6 +51,8 @@ def usable_cores() -> int:
 def _can_fork() -> bool:
     """Linux only: on macOS a forked child of a process that has used the system's numerical
     libraries can crash, and Windows has no fork."""
+    import multiprocessing
+
     return (
         sys.platform.startswith("linux")
         and "fork" in multiprocessing.get_all_start_methods()
@@ -90,6 +89,10 @@ def fit_many(
     workers = min(workers, -(-len(todo) // CHUNK))
     done = len(rows) - len(todo)
     if len(todo) >= MIN_PARALLEL and workers > 1 and _can_fork():
+        import multiprocessing  # here: a single answer (grasp, identify) does not import them
+        from concurrent.futures import ProcessPoolExecutor
+        from concurrent.futures.process import BrokenProcessPool
+
         first = todo.pop(0)  # fitted here first: the grids are built before the fork
         out[first] = fit_shape(rows[first], names, cal)
         done += 1

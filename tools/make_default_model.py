@@ -22,6 +22,8 @@ import subprocess
 import sys
 from pathlib import Path
 
+import numpy as np
+
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 
@@ -62,13 +64,8 @@ def main() -> None:
         return
     path = save_model(DATA / MODEL_FILE, model)
     training = DATA / TRAINING_FILE
-    import numpy as np
-
-    grasps = records  # the grasps themselves: a noise-aware training's copies left out
-    if best["training"] in R.NOISE_AWARE:
-        from tactile_bullet.learn.robust import AUGMENT_COPIES
-
-        grasps = records[: len(records) // (1 + AUGMENT_COPIES)]
+    # the grasps themselves: a noise-aware training's noisy copies left out
+    grasps = R.training_records(cache, scale, best["training"], noisy=False)
     with open(training, "wb") as fh:
         np.savez_compressed(fh, features=np.asarray(model.features(grasps), dtype=float),
                             labels=np.array([str(r.shape) for r in grasps]))  # fmt: skip

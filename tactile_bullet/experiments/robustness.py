@@ -407,22 +407,24 @@ def fit_model(
 
 
 def training_set(sets: Mapping[str, list[GraspRecord]], training: str,
-                 seed: int = 0) -> list[GraspRecord]:  # fmt: skip
+                 seed: int = 0, noisy: bool = True) -> list[GraspRecord]:  # fmt: skip
     """The records a training fits on: its sets joined, and for a noise-aware training each
-    record also presented through joint noise (``learn/robust.augment``, seeded)."""
+    record also presented through joint noise (``learn/robust.augment``, seeded; ``noisy``
+    False: the grasps alone)."""
     records = [r for s in TRAININGS[training] for r in sets[s]]
-    if training in NOISE_AWARE:
+    if noisy and training in NOISE_AWARE:
         from ..learn.robust import augment
 
         records = augment(records, seed=seed)
     return records
 
 
-def training_records(cache: Path, scale: str, training: str, seed: int = 0) -> list[GraspRecord]:
+def training_records(cache: Path, scale: str, training: str, seed: int = 0,
+                     noisy: bool = True) -> list[GraspRecord]:  # fmt: skip
     """The records of one of the matrix's trainings, read from its cache (augmented where
-    the training is noise-aware, as the matrix scored it)."""
+    the training is noise-aware, as the matrix scored it, unless ``noisy`` is False)."""
     from .benchmark import load_set
 
     specs = set_specs(scale, {}, None)
     sets = {short: load_set(cache / specs[short].name)[0] for short in TRAININGS[training]}
-    return training_set(sets, training, seed)
+    return training_set(sets, training, seed, noisy)

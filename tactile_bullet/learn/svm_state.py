@@ -51,8 +51,6 @@ OWN_ARRAYS = ("classes", "mean", "scale", "platt")
 SVC_PREFIX = "svc."
 
 
-
-
 def installed_sklearn() -> str:
     """The installed scikit-learn's version, read without importing it."""
     from importlib.metadata import PackageNotFoundError, version

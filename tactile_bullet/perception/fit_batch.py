@@ -81,9 +81,9 @@ def fit_many(
     names = tuple(dict.fromkeys(str(f) for f in families))
     cal = active_calibration() if calibration is None else calibration
     rows = [np.asarray(a, dtype=float) for a in angles]
-    for a in rows:
-        measured_features(a)  # bad angles fail here, in this process, as fit_shape would
-    out: list[ShapeFit | None] = [cached_fit(a, names, cal) for a in rows]
+    # bad angles fail here, in this process, as fit_shape would; each row's features once
+    features = [measured_features(a) for a in rows]
+    out: list[ShapeFit | None] = [cached_fit(f, names, cal, features=True) for f in features]
     todo = [i for i, fit in enumerate(out) if fit is None]
     workers = usable_cores() if workers is None else workers
     workers = min(workers, -(-len(todo) // CHUNK))
@@ -103,7 +103,7 @@ def fit_many(
             results = pool.map(_fit_chunk, [np.stack([rows[i] for i in c]) for c in chunks])
             for chunk, fits in zip(chunks, results, strict=True):
                 for i, fit in zip(chunk, fits, strict=True):
-                    out[i] = keep_fit(rows[i], names, cal, fit)
+                    out[i] = keep_fit(features[i], names, cal, fit, features=True)
                 done += len(chunk)
                 tick(desc, done, len(rows))
         except BrokenProcessPool:  # a worker died (killed, out of memory): the rest here

@@ -52,7 +52,8 @@ TRAINING_FREE_SAMPLES = 200
 """Training grasps the shape fit's own margin is calibrated on, drawn per shape in proportion:
 it learns nothing from them, so its held-out margins on a sample are a sample of its margins on
 all, and the 5% threshold read from ~190 right answers is off by ~1.6 points of false alarms
-(one standard error) where fitting all 1,143 of the thesis preset took 4x an svm's training."""
+(one standard error), where fitting every grasp of the thesis preset made its training several
+times an svm's (docs/performance.md, "Shape fits on every core")."""
 KNOWN_CHECK = "known-grasps"
 """The second opinion of a model fitted with the user's known grasps (``train --known``)."""
 KNOWN_DESCRIPTOR = "signature+coupled-joints"

@@ -215,7 +215,8 @@ def grasp_answer(record, fit: dict | None, signature: dict | None) -> dict:
         "method": {"name": meta.get("method"), "training": meta.get("training")},
         "probabilities": doc["probabilities"], "margin": doc.get("margin"),
         "ambiguous": doc.get("ambiguous"), "unknown": bool(doc.get("unknown")),
-        "novelty": doc.get("novelty"), "cross_check": doc.get("cross_check"),
+        "novelty": doc.get("novelty"), "unknown_why": doc.get("unknown_why"),
+        "axis_residual_mm": doc.get("axis_residual_mm"), "cross_check": doc.get("cross_check"),
         "rotation_deg": rotation, "rotation_withheld": withheld, "others": others,
     }  # fmt: skip
 
@@ -306,6 +307,17 @@ def _detector_line(in_contact, dynamic: dict, engine: str) -> str:
             f"{tuned}")  # fmt: skip
 
 
+def unknown_reason(doc: dict, who: str = "the model") -> str:
+    """Why an answer is ``unknown``, in words (its ``unknown_why``)."""
+    from ..learn.doubt import NOT_REVOLUTION
+
+    if doc.get("unknown_why") == NOT_REVOLUTION:
+        return (f"its contacts fit no solid of revolution ({doc.get('axis_residual_mm')} mm "
+                "off the best axis): an object of no family")
+    return (f"the grasp is unlike every grasp {who} learnt (an object of no family it knows, "
+            "or a pose it never saw)")
+
+
 def _answer_line(doc: dict) -> str:
     """``identified: SHAPE by the default identifier (METHOD)``, with its doubt: the line
     the ``answer`` block prints as; nothing below it is another answer, only detail."""
@@ -314,8 +326,8 @@ def _answer_line(doc: dict) -> str:
         return "identified: nothing (the grasp touched too little)"
     how = f"the default identifier ({answer['method']['name']})"
     if answer.get("unknown"):
-        return (f"identified: UNKNOWN - the grasp is unlike every grasp {how} learnt (an object "
-                f"of no family it knows, or a pose it never saw); best guess {answer['shape']}")
+        return (f"identified: UNKNOWN - {unknown_reason(answer, how)}; best guess "
+                f"{answer['shape']}")
     p = answer["probabilities"].get(answer["shape"])
     line = f"identified: {answer['shape']} by {how}" + (f", p={p:.2f}" if p is not None else "")
     if answer.get("ambiguous"):

@@ -36,8 +36,9 @@ def answer_text(doc) -> str:
     """``SHAPE`` with what the model doubts: ``unknown (best guess SHAPE)`` where no family
     it knows explains the grasp, and the ambiguity where two shapes are close."""
     if doc.get("unknown"):
-        return (f"UNKNOWN: the grasp is unlike every grasp the model learnt (an object of no "
-                f"family it knows, or a pose it never saw); best guess {doc['shape']}")
+        from .grasp import unknown_reason
+
+        return f"UNKNOWN: {unknown_reason(doc)}; best guess {doc['shape']}"
     return f"{doc['shape']}{ambiguity_text(doc)}"
 
 

@@ -148,6 +148,7 @@ class _Fitted:
     estimator: Any
     calibration: dict[str, Any]
     novelty: Any
+    axis: Any = None
 
 
 def _shape_fit_names(records, cache: dict[int, str], classes) -> np.ndarray:
@@ -177,6 +178,7 @@ def score_matrix(
     tests = {c.name: read_column(c, sets, seed) for c in columns}
     oof = {n: sets[n] for n in OUT_OF_FAMILY_SETS if n in sets}
     fit_cache: dict[int, str] = {}
+    axis_cache: dict[int, tuple] = {}
     rows = []
     runs = [(c, t) for c in candidates for t in c.trainings]
     for i, (cand, training) in enumerate(runs, 1):
@@ -191,7 +193,7 @@ def score_matrix(
         train = training_set(sets, training, seed)
         y = _labels(train)
         x = np.asarray(desc.transform(train), float)
-        fitted = _fit(cand, x, y, train, seed, fit_cache)
+        fitted = _fit(cand, x, y, train, seed, fit_cache, axis_cache)
         classes = [str(c) for c in fitted.estimator.classes_]
         for col, name in [*((c, c.name) for c in columns), *((None, n) for n in oof)]:
             records = tests[name] if col else oof[name]
@@ -208,6 +210,8 @@ def score_matrix(
                 flags |= cross_flags(pred, _shape_fit_names(records, fit_cache, classes))
             unknown = fitted.novelty.unknown(xt) if fitted.novelty is not None else \
                 np.zeros(len(xt), bool)  # fmt: skip
+            if fitted.axis is not None:  # contacts that fit no solid of revolution
+                unknown |= fitted.axis.unknown(records, pred, _residuals(records, axis_cache))
             truth = _labels(records)
             right = pred == truth
             doubt = flags | unknown
@@ -227,7 +231,7 @@ def score_matrix(
 
 
 def _fit(cand: Candidate, x: np.ndarray, y: np.ndarray, train, seed: int,
-         fit_cache: dict[int, str]) -> _Fitted:  # fmt: skip
+         fit_cache: dict[int, str], axis_cache: dict[int, tuple]) -> _Fitted:  # fmt: skip
     """The candidate fitted on one training, its doubt calibrated (the shape fit's answers read
     once a run) and its novelty."""
     from ..learn.doubt import calibrate_margin
@@ -247,7 +251,25 @@ def _fit(cand: Candidate, x: np.ndarray, y: np.ndarray, train, seed: int,
         novelty = Novelty.fit(x, y, seed=seed, groups=groups)
     except ValueError:
         novelty = None
-    return _Fitted(estimator, calibration, novelty)
+    from ..perception.revolution import AxisCheck
+
+    return _Fitted(estimator, calibration, novelty,
+                   AxisCheck.fit(train, y, groups, residual=lambda r: _residual(r, axis_cache)))
+
+
+def _residual(record, cache: dict[int, tuple]) -> float | None:
+    """A record's axis residual, read once a run: keyed by its contacts array, which the
+    noise-aware copies of a grasp share (the array is kept, so its id is not reused)."""
+    from ..perception.revolution import axis_residual
+
+    key = id(record.contact_position)
+    if key not in cache:
+        cache[key] = (record.contact_position, axis_residual(record))
+    return cache[key][1]
+
+
+def _residuals(records, cache: dict[int, tuple]) -> list[float | None]:
+    return [_residual(r, cache) for r in records]
 
 
 def _cannot_read(cand: Candidate, records: Sequence[GraspRecord]) -> str | None:

@@ -136,6 +136,9 @@ def train(
     novelty = _novelty(x, y, groups)
     if novelty is not None:
         info["novelty"] = novelty.summary()
+    from ..perception.revolution import AxisCheck
+
+    axis = AxisCheck.fit(records, y, groups)  # None where the grasps have no contacts
     return Model(
         descriptor=desc.name,
         descriptor_params=dict(desc.params),
@@ -145,6 +148,7 @@ def train(
         info=info,
         known=reference,
         novelty=novelty,
+        axis=axis,
     )
 
 
@@ -252,7 +256,8 @@ def identify(model, record: GraspRecord) -> dict[str, Any]:
     if reason is not None:
         return {"shape": None, "reason": reason, "probabilities": {}, "margin": None,
                 "ambiguous": None, "cross_check": None, "unknown": False,
-                "novelty": None}  # fmt: skip
+                "novelty": None, "unknown_why": None,
+                "axis_residual_mm": None}  # fmt: skip
     classes = [str(c) for c in model.classes]
     x = model.features([record])
     names, proba = model.predict_with_proba([record], x)

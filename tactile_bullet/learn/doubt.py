@@ -402,17 +402,24 @@ def answer_doubt(
     second_opinion: str | None = None,
     novelty: float | None = None,
     novelty_threshold: float | None = None,
+    axis_residual: float | None = None,
+    off_axis: bool = False,
 ) -> dict[str, Any]:
     """``{"margin", "ambiguous", "cross_check", "unknown", "novelty"}`` of one answer:
     ``ambiguous`` is ``[shape, runner-up]`` when the margin is below the threshold, else
     ``[shape, second_opinion]`` when the cross-check names another shape, else None; without
     probabilities the margin is None. ``cross_check`` is the second opinion (None where none
     was asked). ``unknown`` is True where the grasp's ``novelty`` (its distance from the
-    model's training grasps, :mod:`.novelty`) is above the model's ``novelty_threshold``: no
-    family the model knows explains it, and ``shape`` is only the best guess."""
+    model's training grasps, :mod:`.novelty`) is above the model's ``novelty_threshold``, or
+    where ``off_axis`` (its contacts' normals miss every axis by more than the named family's
+    threshold, ``axis_residual`` m: :mod:`tactile_bullet.perception.revolution`): no family
+    the model knows explains it, and ``shape`` is only the best guess; ``unknown_why`` says
+    which (None where known)."""
     opinion = second_opinion or None
     out: dict[str, Any] = {"margin": None, "ambiguous": None, "cross_check": opinion,
-                           "unknown": False, "novelty": novelty}  # fmt: skip
+                           "unknown": False, "novelty": novelty, "unknown_why": None,
+                           "axis_residual_mm": None if axis_residual is None
+                           else round(1000.0 * axis_residual, 3)}  # fmt: skip
     classes = [str(c) for c in classes]
     if proba is not None and len(classes) >= 2:
         decided = classes.index(shape)
@@ -422,9 +429,17 @@ def answer_doubt(
             out["ambiguous"] = [shape, classes[int(second[0])]]
     if out["ambiguous"] is None and opinion is not None and opinion != shape:
         out["ambiguous"] = [shape, opinion]
-    if novelty is not None and novelty_threshold is not None:
-        out["unknown"] = bool(novelty > novelty_threshold)
+    if novelty is not None and novelty_threshold is not None and novelty > novelty_threshold:
+        out["unknown"], out["unknown_why"] = True, UNLIKE_TRAINING
+    elif off_axis:
+        out["unknown"], out["unknown_why"] = True, NOT_REVOLUTION
     return out
+
+
+UNLIKE_TRAINING = "unlike every grasp the model learnt"
+"""``unknown_why`` of the novelty rule (:mod:`.novelty`)."""
+NOT_REVOLUTION = "its contacts fit no solid of revolution"
+"""``unknown_why`` of the axis rule (:mod:`tactile_bullet.perception.revolution`)."""
 
 
 BATCH_WARNING_SHARE = 0.25
@@ -489,9 +504,15 @@ def doubts(
         x = model.features(records) if features is None else features
         scores = [float(v) for v in novelty.scores(x)]
     limit = None if novelty is None else novelty.threshold
+    axis = getattr(model, "axis", None)
+    residuals: Sequence[float | None] = [None] * len(names)
+    off = np.zeros(len(names), dtype=bool)
+    if axis is not None and len(records):
+        residuals = axis.residuals(records)
+        off = axis.unknown(records, names, residuals)
     return [
         answer_doubt(classes, str(n), None if proba is None else proba[i], threshold, others[i],
-                     scores[i], limit)  # fmt: skip
+                     scores[i], limit, residuals[i], bool(off[i]))  # fmt: skip
         for i, n in enumerate(names)
     ]
 
@@ -520,6 +541,7 @@ def evaluation_doubt(
             "threshold": None if novelty is None else novelty.threshold,
             "in_family": share(family), "out_of_family": share(~family),
             "in_family_grasps": int(family.sum()), "out_of_family_grasps": int((~family).sum()),
+            "by_axis": int(sum(d["unknown_why"] == NOT_REVOLUTION for d in found)),
         },
     }  # fmt: skip
 

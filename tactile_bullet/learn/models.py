@@ -99,6 +99,11 @@ class Model:
     """:class:`tactile_bullet.learn.novelty.Novelty`: how far a grasp lies from the training
     grasps, and where that answers ``unknown`` (None in a model file written before it
     existed: no answer is unknown). Saved as ``novelty.*`` arrays."""
+    axis: Any = None
+    """:class:`tactile_bullet.perception.revolution.AxisCheck`: thresholds on how far a
+    grasp's contact normals miss every axis, per engine and family, where that answers
+    ``unknown`` (None where the training grasps had no contacts, or in a file written before
+    it existed). Saved as ``axis_check`` in the metadata."""
     software_version: str = __version__
     format_version: int = MODEL_FORMAT_VERSION
 
@@ -178,6 +183,8 @@ def save_model(path: str | Path, model: Model) -> Path:
         meta["novelty"] = state
         arrays |= {_NOVELTY_PREFIX + k: np.asarray(v, dtype=float)
                    for k, v in novelty_arrays.items()}  # fmt: skip
+    if model.axis is not None:
+        meta["axis_check"] = model.axis.to_dict()
     saved_state = _state_of(est, model.classifier)
     if saved_state is not None:
         state, state_arrays = saved_state
@@ -337,6 +344,7 @@ def load_model(path: str | Path) -> Model:
     info = meta.get("info", {})
     known = _load_known(path, meta, contents, classes)
     novelty = _load_novelty(path, meta, contents)
+    axis = _load_axis(path, meta)
     return Model(
         descriptor=descriptor,
         descriptor_params=descriptor_params,
@@ -346,6 +354,7 @@ def load_model(path: str | Path) -> Model:
         info=info if isinstance(info, dict) else {},
         known=known,
         novelty=novelty,
+        axis=axis,
         software_version=str(meta.get("software_version", "unknown")),
         format_version=MODEL_FORMAT_VERSION,
     )
@@ -392,6 +401,19 @@ def _load_novelty(path: Path, meta: dict, contents: dict[str, np.ndarray]):
         raise UsageError(f"{path} is not a valid model: its novelty fields are incomplete")
     try:
         return Novelty.from_state(state, arrays)
+    except ValueError as exc:
+        raise UsageError(f"{path} is not a valid model: {exc}") from None
+
+
+def _load_axis(path: Path, meta: dict):
+    """The model's axis check (None where it was written without), checked: a damaged one is
+    refused, never used to answer unknown."""
+    if "axis_check" not in meta:
+        return None
+    from ..perception.revolution import AxisCheck
+
+    try:
+        return AxisCheck.from_dict(meta["axis_check"])
     except ValueError as exc:
         raise UsageError(f"{path} is not a valid model: {exc}") from None
 

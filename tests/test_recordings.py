@@ -288,8 +288,9 @@ def test_streaming_names_the_shape_once_the_grasp_is_held(model, held_out_record
     ident = Identifier.load(model)
     assert ident.result() == {"shape": None, "probabilities": {}, "margin": None,
                               "ambiguous": None, "cross_check": None, "unknown": False,
-                              "novelty": None, "rotation_deg": None, "grasp_over": False,
-                              "samples": 0}  # fmt: skip
+                              "novelty": None, "unknown_why": None,
+                              "axis_residual_mm": None, "rotation_deg": None,
+                              "grasp_over": False, "samples": 0}  # fmt: skip
     t0 = 0.0
     want = workflow.predict(model, held_out_records)
     for rec, expected in zip(held_out_records, want, strict=True):

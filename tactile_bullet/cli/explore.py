@@ -105,8 +105,9 @@ def run(args: argparse.Namespace) -> int:
     p = answer["probabilities"][answer["shape"]]
     line = f"identified after {answer['grasps']} grasp(s): {answer['shape']} (posterior {p:.2f})"
     if answer["unknown"]:
-        line = (f"identified after {answer['grasps']} grasp(s): UNKNOWN - unlike every grasp "
-                f"the default identifier learnt; best guess {answer['shape']}")  # fmt: skip
+        line = (f"identified after {answer['grasps']} grasp(s): UNKNOWN - at least half the "
+                f"grasps were answered unknown (no family explains them); best guess "
+                f"{answer['shape']}")  # fmt: skip
     elif answer["ambiguous"]:
         line += f" - AMBIGUOUS: {answer['ambiguous'][0]} or {answer['ambiguous'][1]}"
     print(line)

@@ -379,7 +379,7 @@ def build(way: str, known: Sequence, data: Sequence | None = None):
         base = default_model()
         return Model(base.descriptor, dict(base.descriptor_params), base.classifier,
                      dict(base.classifier_params), base.estimator, info=dict(base.info),
-                     known=base.known, novelty=base.novelty)  # fmt: skip
+                     known=base.known, novelty=base.novelty, axis=base.axis)  # fmt: skip
     if way == "nearest-known":
         return train(list(known), NEAREST_DESCRIPTOR, "knn", {"n_neighbors": 1})
     if way == "calibrated-shape-fit":
@@ -409,5 +409,6 @@ def build(way: str, known: Sequence, data: Sequence | None = None):
     novelty = _novelty(x, y)
     if novelty is not None:
         info["novelty"] = novelty.summary()
+    # the axis thresholds are the objects' geometry on each engine: a hand's shift keeps them
     return Model(base.descriptor, dict(base.descriptor_params), SHIFTED_CLASSIFIER, {}, est,
-                 info=info, known=reference, novelty=novelty)  # fmt: skip
+                 info=info, known=reference, novelty=novelty, axis=base.axis)  # fmt: skip

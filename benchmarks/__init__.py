@@ -26,6 +26,7 @@ FAST: dict[str, tuple[str, ...]] = {
     "engine_difference": ("--per-shape", "8"),
     "bench_predict": ("--overhead-only",),
     "bench_fit_batch": ("--grasps", "64", "--repeat", "1"),
+    "bench_revolution": ("--grasps", "100"),
 }
 """Benchmarks that need no dataset and finish in well under a minute on two cores, with the
 arguments ``python -m benchmarks`` runs them with."""

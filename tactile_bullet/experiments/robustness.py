@@ -254,22 +254,20 @@ def _fit(cand: Candidate, x: np.ndarray, y: np.ndarray, train, seed: int,
     from ..perception.revolution import AxisCheck
 
     return _Fitted(estimator, calibration, novelty,
-                   AxisCheck.fit(train, y, groups, residual=lambda r: _residual(r, axis_cache)))
-
-
-def _residual(record, cache: dict[int, tuple]) -> float | None:
-    """A record's axis residual, read once a run: keyed by its contacts array, which the
-    noise-aware copies of a grasp share (the array is kept, so its id is not reused)."""
-    from ..perception.revolution import axis_residual
-
-    key = id(record.contact_position)
-    if key not in cache:
-        cache[key] = (record.contact_position, axis_residual(record))
-    return cache[key][1]
+                   AxisCheck.fit(train, y, groups,
+                                 residuals=lambda recs: _residuals(recs, axis_cache)))
 
 
 def _residuals(records, cache: dict[int, tuple]) -> list[float | None]:
-    return [_residual(r, cache) for r in records]
+    """Each record's axis residual, computed once a run (batched): keyed by its contacts
+    array, which the noise-aware copies of a grasp share (the array is kept in the cache, so
+    its id is not reused)."""
+    from ..perception.revolution import axis_residuals
+
+    todo = {id(r.contact_position): r for r in records if id(r.contact_position) not in cache}
+    for (key, r), value in zip(todo.items(), axis_residuals(list(todo.values())), strict=True):
+        cache[key] = (r.contact_position, value)
+    return [cache[id(r.contact_position)][1] for r in records]
 
 
 def _cannot_read(cand: Candidate, records: Sequence[GraspRecord]) -> str | None:

@@ -168,22 +168,22 @@ class AxisCheck:
     @classmethod
     def fit(
         cls, records: Sequence, labels: Sequence[str], groups: np.ndarray | None = None,
-        rate: float = RATE, residual: Callable[[Any], float | None] | None = None,
+        rate: float = RATE, residuals: Callable[[Sequence], list] | None = None,
     ) -> AxisCheck | None:  # fmt: skip
         """Thresholds from training grasps (``groups``: copies of one grasp, residual taken
-        once; ``residual``: :func:`axis_residual` or a cached form of it); None where no
+        once; ``residuals``: :func:`axis_residuals` or a cached form of it); None where no
         family on any engine has 20 grasps with a residual."""
-        residual = residual or axis_residual
-        seen: set[int] = set()
+        keep, seen = [], set()
+        for i in range(len(records)):
+            group = i if groups is None else int(groups[i])
+            if group not in seen:
+                seen.add(group)
+                keep.append(i)
+        distinct = [records[i] for i in keep]
         values: dict[tuple[str, str], list[float]] = {}
-        for i, (record, label) in enumerate(zip(records, labels, strict=True)):
-            if groups is not None:
-                if int(groups[i]) in seen:
-                    continue
-                seen.add(int(groups[i]))
-            value = residual(record)
+        for i, value in zip(keep, (residuals or axis_residuals)(distinct), strict=True):
             if value is not None:
-                values.setdefault((_engine(record), str(label)), []).append(value)
+                values.setdefault((_engine(records[i]), str(labels[i])), []).append(value)
         thresholds: dict[str, dict[str, float]] = {}
         for (engine, label), v in values.items():
             if len(v) >= 20:

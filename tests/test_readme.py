@@ -191,3 +191,20 @@ def test_readme_examples_run_in_order(tmp_path):
         if command == "identify":  # its model is the tour's: it exists now
             doc = run_json(command, arguments, tmp_path)
             assert names_its_shape(doc, shape), f"{command} {arguments}: {doc}"
+
+
+@pytest.mark.slow
+def test_the_readme_box_is_answered_unknown_for_its_contacts(tmp_path):
+    """The README's mesh example grasps a box, an object of no family: its answer is UNKNOWN,
+    because its contacts fit no solid of revolution, as the line's comment says."""
+    from tactile_bullet.learn.doubt import NOT_REVOLUTION
+
+    text = README.read_text()
+    make = next(x for x in text.splitlines() if x.startswith("tactile-bullet make-objects"))
+    grasp = next(x for x in text.splitlines() if x.startswith("tactile-bullet grasp --mesh"))
+    assert "box" in make and "UNKNOWN" in grasp.partition("#")[2]
+    argv = shlex.split(make.partition("#")[0])[1:]
+    subprocess.run([sys.executable, "-m", "tactile_bullet.cli", *argv], cwd=tmp_path,
+                   check=True, capture_output=True)  # fmt: skip
+    doc = run_json("grasp", grasp.partition("#")[0].split("grasp", 1)[1], tmp_path)
+    assert doc["answer"]["unknown"] is True and doc["answer"]["unknown_why"] == NOT_REVOLUTION

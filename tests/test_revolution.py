@@ -232,3 +232,14 @@ def test_grasp_answers_a_box_unknown_because_its_contacts_fit_no_solid_of_revolu
     assert main(["grasp", "--mesh", str(path), "--axis", "z"]) == 0
     line = next(x for x in capsys.readouterr().out.splitlines() if x.startswith("identified:"))
     assert "UNKNOWN" in line and "no solid of revolution" in line
+
+
+def test_evaluate_text_says_how_many_answers_the_contacts_made_unknown():
+    from tactile_bullet.experiments.reports import summary_text
+
+    report = {"accuracy": 0.5, "records": 4, "classes": ["cylinder", "sphere"],
+              "confusion_matrix": [[1, 1], [1, 1]],
+              "unknown": {"threshold": 1.0, "in_family": 0.25, "out_of_family": None,
+                          "in_family_grasps": 4, "out_of_family_grasps": 0, "by_axis": 1}}
+    line = next(x for x in summary_text(report).splitlines() if x.startswith("unknown"))
+    assert "25% of 4 grasps" in line and "1 because the contacts fit no solid" in line

@@ -262,7 +262,9 @@ def summary_text(report: Mapping[str, Any]) -> str:
             f"unknown (no family the model knows): {pct(unknown['in_family'])} of "
             f"{unknown['in_family_grasps']} grasps of its shapes, {pct(unknown['out_of_family'])} "
             f"of {unknown['out_of_family_grasps']} grasps of other objects"
-        )
+            + (f"; {unknown['by_axis']} because the contacts fit no solid of revolution"
+               if unknown.get("by_axis") else "")
+        )  # fmt: skip
     blank = []
     for kind in ("by_size", "by_position", "by_rotation"):
         bins = report.get(kind)

@@ -32,6 +32,8 @@ FAST: dict[str, tuple[str, ...]] = {
 arguments ``python -m benchmarks`` runs them with."""
 
 NEEDS: dict[str, str] = {
+    "axis_residual_figure": "a robustness matrix's cache (--cache DIR/data) with its training "
+    "and out-of-family sets; seconds",
     "cylinder_cone_fit": "no dataset; simulates four cylinders (seconds)",
     "novelty_alternatives": "a full-scale robustness matrix's cache (--cache DIR/data), minutes",
     "shape_fit_equivalence": "git (it loads the shape fit of --ref, default adcd9c0, beside this "

@@ -14,13 +14,8 @@ import pytest
 
 from tactile_bullet.errors import UsageError
 from tactile_bullet.learn import doubt
-from tactile_bullet.perception.revolution import (
-    FLOOR,
-    MIN_LINKS,
-    AxisCheck,
-    axis_residual,
-    axis_residuals,
-)
+from tactile_bullet.perception.contact_check import FLOOR, ContactCheck, Verdict
+from tactile_bullet.perception.revolution import MIN_LINKS, axis_residual, axis_residuals
 
 FINGER_X = (-0.033, -0.011, 0.011, 0.033)
 LINKS = ("proximal", "middle", "distal")
@@ -118,7 +113,7 @@ def _training(rng, n=40):
 def test_thresholds_are_per_engine_and_family_floored_and_fall_back_to_the_largest():
     rng = np.random.default_rng(3)
     records, labels = _training(rng)
-    check = AxisCheck.fit(records, labels)
+    check = ContactCheck.fit(records, labels)
     assert set(check.thresholds) == {"bullet"}
     assert check.threshold("bullet", "cylinder") == FLOOR  # exact contacts fit to ~0
     assert check.threshold("mujoco", "sphere") == FLOOR  # no mujoco grasps: the largest
@@ -131,25 +126,29 @@ def test_thresholds_are_per_engine_and_family_floored_and_fall_back_to_the_large
 def test_too_few_grasps_with_contacts_calibrate_nothing():
     rng = np.random.default_rng(4)
     records, labels = _training(rng, n=10)
-    assert AxisCheck.fit(records, labels) is None
+    assert ContactCheck.fit(records, labels) is None
 
 
 def test_copies_of_one_grasp_count_once():
     rng = np.random.default_rng(5)
     records, labels = _training(rng)
     groups = np.arange(len(records)) // 2  # every two records one grasp
-    assert AxisCheck.fit(records, labels, groups).grasps == len(records) // 2
+    assert ContactCheck.fit(records, labels, groups).grasps == len(records) // 2
 
 
-def test_the_axis_rule_answers_unknown_with_its_reason_and_novelty_comes_first():
+def test_contacts_answer_unknown_with_their_reason_and_novelty_comes_first():
     classes = ["cylinder", "sphere"]
-    off = doubt.answer_doubt(classes, "cylinder", None, None, None, 1.0, 2.0, 0.0062, True)
-    assert off["unknown"] and off["unknown_why"] == doubt.NOT_REVOLUTION
-    assert off["axis_residual_mm"] == pytest.approx(6.2)
-    far = doubt.answer_doubt(classes, "cylinder", None, None, None, 3.0, 2.0, 0.0062, True)
+    off = Verdict(axis_residual=0.0062, unknown_why="axis")
+    doc = doubt.answer_doubt(classes, "cylinder", None, None, None, 1.0, 2.0, off)
+    assert doc["unknown"] and doc["unknown_why"] == doubt.NOT_REVOLUTION
+    assert doc["axis_residual_mm"] == pytest.approx(6.2)
+    far = doubt.answer_doubt(classes, "cylinder", None, None, None, 3.0, 2.0, off)
     assert far["unknown_why"] == doubt.UNLIKE_TRAINING
-    fine = doubt.answer_doubt(classes, "cylinder", None, None, None, 1.0, 2.0, 0.0004, False)
-    assert not fine["unknown"] and fine["unknown_why"] is None
+    bulge = Verdict(0.0004, 0.0023, unknown_why="profile")
+    doc = doubt.answer_doubt(classes, "cylinder", None, None, None, 1.0, 2.0, bulge)
+    assert doc["unknown_why"] == doubt.NOT_PROFILE and doc["profile_residual_mm"] == 2.3
+    fine = doubt.answer_doubt(classes, "cylinder", None, None, None, 1.0, 2.0, Verdict(0.0004))
+    assert not fine["unknown"] and fine["unknown_why"] is None and fine["ambiguous"] is None
 
 
 def _saved_model(tmp_path, synthetic_split):
@@ -158,7 +157,7 @@ def _saved_model(tmp_path, synthetic_split):
 
     rng = np.random.default_rng(6)
     model = workflow.train(synthetic_split[0], "raw-joints", "knn", doubt=False)
-    model.axis = AxisCheck.fit(*_training(rng))
+    model.axis = ContactCheck.fit(*_training(rng))
     return model, save_model(tmp_path / "m.npz", model)
 
 

@@ -216,7 +216,9 @@ def grasp_answer(record, fit: dict | None, signature: dict | None) -> dict:
         "probabilities": doc["probabilities"], "margin": doc.get("margin"),
         "ambiguous": doc.get("ambiguous"), "unknown": bool(doc.get("unknown")),
         "novelty": doc.get("novelty"), "unknown_why": doc.get("unknown_why"),
-        "axis_residual_mm": doc.get("axis_residual_mm"), "cross_check": doc.get("cross_check"),
+        "axis_residual_mm": doc.get("axis_residual_mm"),
+        "profile_residual_mm": doc.get("profile_residual_mm"),
+        "cross_check": doc.get("cross_check"),
         "rotation_deg": rotation, "rotation_withheld": withheld, "others": others,
     }  # fmt: skip
 
@@ -309,11 +311,14 @@ def _detector_line(in_contact, dynamic: dict, engine: str) -> str:
 
 def unknown_reason(doc: dict, who: str = "the model") -> str:
     """Why an answer is ``unknown``, in words (its ``unknown_why``)."""
-    from ..learn.doubt import NOT_REVOLUTION
+    from ..learn.doubt import NOT_PROFILE, NOT_REVOLUTION
 
     if doc.get("unknown_why") == NOT_REVOLUTION:
         return (f"its contacts fit no solid of revolution ({doc.get('axis_residual_mm')} mm "
                 "off the best axis): an object of no family")
+    if doc.get("unknown_why") == NOT_PROFILE:
+        return (f"its contacts fit no {doc.get('shape')} ({doc.get('profile_residual_mm')} mm "
+                "from the best one's surface): an object of no family")
     return (f"the grasp is unlike every grasp {who} learnt (an object of no family it knows, "
             "or a pose it never saw)")
 

@@ -178,7 +178,7 @@ def score_matrix(
     tests = {c.name: read_column(c, sets, seed) for c in columns}
     oof = {n: sets[n] for n in OUT_OF_FAMILY_SETS if n in sets}
     fit_cache: dict[int, str] = {}
-    axis_cache: dict[int, tuple] = {}
+    axis_cache: dict = {}  # contacts residuals: axis by array id, profile by (id, family)
     rows = []
     runs = [(c, t) for c in candidates for t in c.trainings]
     for i, (cand, training) in enumerate(runs, 1):
@@ -210,8 +210,10 @@ def score_matrix(
                 flags |= cross_flags(pred, _shape_fit_names(records, fit_cache, classes))
             unknown = fitted.novelty.unknown(xt) if fitted.novelty is not None else \
                 np.zeros(len(xt), bool)  # fmt: skip
-            if fitted.axis is not None:  # contacts that fit no solid of revolution
-                unknown |= fitted.axis.unknown(records, pred, _residuals(records, axis_cache))
+            if fitted.axis is not None:  # contacts that fit no family's solid or profile
+                unknown |= fitted.axis.unknown(
+                    records, pred, _residuals(records, axis_cache),
+                    lambda recs, names: _profiles(recs, names, axis_cache))  # fmt: skip
             truth = _labels(records)
             right = pred == truth
             doubt = flags | unknown
@@ -231,7 +233,7 @@ def score_matrix(
 
 
 def _fit(cand: Candidate, x: np.ndarray, y: np.ndarray, train, seed: int,
-         fit_cache: dict[int, str], axis_cache: dict[int, tuple]) -> _Fitted:  # fmt: skip
+         fit_cache: dict[int, str], axis_cache: dict) -> _Fitted:  # fmt: skip
     """The candidate fitted on one training, its doubt calibrated (the shape fit's answers read
     once a run) and its novelty."""
     from ..learn.doubt import calibrate_margin
@@ -251,11 +253,28 @@ def _fit(cand: Candidate, x: np.ndarray, y: np.ndarray, train, seed: int,
         novelty = Novelty.fit(x, y, seed=seed, groups=groups)
     except ValueError:
         novelty = None
-    from ..perception.revolution import AxisCheck
+    from ..perception.contact_check import ContactCheck
 
     return _Fitted(estimator, calibration, novelty,
-                   AxisCheck.fit(train, y, groups,
-                                 residuals=lambda recs: _residuals(recs, axis_cache)))
+                   ContactCheck.fit(train, y, groups,
+                                 residuals=lambda recs: _residuals(recs, axis_cache),
+                                 profiles=lambda recs, names: _profiles(recs, names, axis_cache)))
+
+
+def _profiles(records, names, cache: dict) -> list[float | None]:
+    """Each record's profile residual for the family named, computed once a run per record and
+    family (batched; keyed as :func:`_residuals` keys)."""
+    from ..perception.profile_fit import profile_residuals
+
+    todo = {}
+    for r, name in zip(records, names, strict=True):
+        key = (id(r.contact_position), str(name))
+        if key not in cache:
+            todo[key] = r
+    values = profile_residuals(list(todo.values()), [k[1] for k in todo])
+    for (key, r), value in zip(todo.items(), values, strict=True):
+        cache[key] = (r.contact_position, value)
+    return [cache[(id(r.contact_position), str(n))][1] for r, n in zip(records, names, strict=True)]
 
 
 def _residuals(records, cache: dict[int, tuple]) -> list[float | None]:

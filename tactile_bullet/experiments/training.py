@@ -136,9 +136,9 @@ def train(
     novelty = _novelty(x, y, groups)
     if novelty is not None:
         info["novelty"] = novelty.summary()
-    from ..perception.revolution import AxisCheck
+    from ..perception.contact_check import ContactCheck
 
-    axis = AxisCheck.fit(records, y, groups)  # None where the grasps have no contacts
+    axis = ContactCheck.fit(records, y, groups)  # None where the grasps have no contacts
     return Model(
         descriptor=desc.name,
         descriptor_params=dict(desc.params),
@@ -257,7 +257,7 @@ def identify(model, record: GraspRecord) -> dict[str, Any]:
         return {"shape": None, "reason": reason, "probabilities": {}, "margin": None,
                 "ambiguous": None, "cross_check": None, "unknown": False,
                 "novelty": None, "unknown_why": None,
-                "axis_residual_mm": None}  # fmt: skip
+                "axis_residual_mm": None, "profile_residual_mm": None}  # fmt: skip
     classes = [str(c) for c in model.classes]
     x = model.features([record])
     names, proba = model.predict_with_proba([record], x)

@@ -402,8 +402,7 @@ def answer_doubt(
     second_opinion: str | None = None,
     novelty: float | None = None,
     novelty_threshold: float | None = None,
-    axis_residual: float | None = None,
-    off_axis: bool = False,
+    contacts: Any = None,
 ) -> dict[str, Any]:
     """``{"margin", "ambiguous", "cross_check", "unknown", "novelty"}`` of one answer:
     ``ambiguous`` is ``[shape, runner-up]`` when the margin is below the threshold, else
@@ -411,15 +410,17 @@ def answer_doubt(
     probabilities the margin is None. ``cross_check`` is the second opinion (None where none
     was asked). ``unknown`` is True where the grasp's ``novelty`` (its distance from the
     model's training grasps, :mod:`.novelty`) is above the model's ``novelty_threshold``, or
-    where ``off_axis`` (its contacts' normals miss every axis by more than the named family's
-    threshold, ``axis_residual`` m: :mod:`tactile_bullet.perception.revolution`): no family
-    the model knows explains it, and ``shape`` is only the best guess; ``unknown_why`` says
-    which (None where known)."""
+    where the grasp's ``contacts`` (a :class:`~tactile_bullet.perception.contact_check.Verdict`)
+    fit no solid of revolution, or no profile of the named family: no family the model knows
+    explains it, and ``shape`` is only the best guess; ``unknown_why`` says which (None where
+    known)."""
     opinion = second_opinion or None
+    axis = getattr(contacts, "axis_residual", None)
+    profile = getattr(contacts, "profile_residual", None)
     out: dict[str, Any] = {"margin": None, "ambiguous": None, "cross_check": opinion,
                            "unknown": False, "novelty": novelty, "unknown_why": None,
-                           "axis_residual_mm": None if axis_residual is None
-                           else round(1000.0 * axis_residual, 3)}  # fmt: skip
+                           "axis_residual_mm": _mm(axis),
+                           "profile_residual_mm": _mm(profile)}  # fmt: skip
     classes = [str(c) for c in classes]
     if proba is not None and len(classes) >= 2:
         decided = classes.index(shape)
@@ -429,17 +430,25 @@ def answer_doubt(
             out["ambiguous"] = [shape, classes[int(second[0])]]
     if out["ambiguous"] is None and opinion is not None and opinion != shape:
         out["ambiguous"] = [shape, opinion]
+    why = getattr(contacts, "unknown_why", None)
     if novelty is not None and novelty_threshold is not None and novelty > novelty_threshold:
         out["unknown"], out["unknown_why"] = True, UNLIKE_TRAINING
-    elif off_axis:
-        out["unknown"], out["unknown_why"] = True, NOT_REVOLUTION
+    elif why is not None:
+        out["unknown"] = True
+        out["unknown_why"] = NOT_REVOLUTION if why == "axis" else NOT_PROFILE
     return out
+
+
+def _mm(metres: float | None) -> float | None:
+    return None if metres is None else round(1000.0 * float(metres), 3)
 
 
 UNLIKE_TRAINING = "unlike every grasp the model learnt"
 """``unknown_why`` of the novelty rule (:mod:`.novelty`)."""
 NOT_REVOLUTION = "its contacts fit no solid of revolution"
 """``unknown_why`` of the axis rule (:mod:`tactile_bullet.perception.revolution`)."""
+NOT_PROFILE = "its contacts fit no profile of the family"
+"""``unknown_why`` of the profile rule (:mod:`tactile_bullet.perception.profile_fit`)."""
 
 
 BATCH_WARNING_SHARE = 0.25
@@ -505,14 +514,12 @@ def doubts(
         scores = [float(v) for v in novelty.scores(x)]
     limit = None if novelty is None else novelty.threshold
     axis = getattr(model, "axis", None)
-    residuals: Sequence[float | None] = [None] * len(names)
-    off = np.zeros(len(names), dtype=bool)
+    verdicts: Sequence[Any] = [None] * len(names)
     if axis is not None and len(records):
-        residuals = axis.residuals(records)
-        off = axis.unknown(records, names, residuals)
+        verdicts = axis.verdicts(records, names)
     return [
         answer_doubt(classes, str(n), None if proba is None else proba[i], threshold, others[i],
-                     scores[i], limit, residuals[i], bool(off[i]))  # fmt: skip
+                     scores[i], limit, verdicts[i])  # fmt: skip
         for i, n in enumerate(names)
     ]
 
@@ -542,6 +549,7 @@ def evaluation_doubt(
             "in_family": share(family), "out_of_family": share(~family),
             "in_family_grasps": int(family.sum()), "out_of_family_grasps": int((~family).sum()),
             "by_axis": int(sum(d["unknown_why"] == NOT_REVOLUTION for d in found)),
+            "by_profile": int(sum(d["unknown_why"] == NOT_PROFILE for d in found)),
         },
     }  # fmt: skip
 

@@ -100,7 +100,7 @@ class Model:
     grasps, and where that answers ``unknown`` (None in a model file written before it
     existed: no answer is unknown). Saved as ``novelty.*`` arrays."""
     axis: Any = None
-    """:class:`tactile_bullet.perception.revolution.AxisCheck`: thresholds on how far a
+    """:class:`tactile_bullet.perception.revolution.ContactCheck`: thresholds on how far a
     grasp's contact normals miss every axis, per engine and family, where that answers
     ``unknown`` (None where the training grasps had no contacts, or in a file written before
     it existed). Saved as ``axis_check`` in the metadata."""
@@ -410,10 +410,10 @@ def _load_axis(path: Path, meta: dict):
     refused, never used to answer unknown."""
     if "axis_check" not in meta:
         return None
-    from ..perception.revolution import AxisCheck
+    from ..perception.contact_check import ContactCheck
 
     try:
-        return AxisCheck.from_dict(meta["axis_check"])
+        return ContactCheck.from_dict(meta["axis_check"])
     except ValueError as exc:
         raise UsageError(f"{path} is not a valid model: {exc}") from None
 

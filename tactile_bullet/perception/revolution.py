@@ -6,7 +6,7 @@ or a banana are not, and from the joint angles alone they read as one of the fam
 tangent lines always have a circle tangent to them all: docs/robustness.md, "what limits it").
 A simulated grasp knows more than its angles: where each link touches and the object's
 outward normal there. :func:`axis_residual` fits the one line that meets every link's normal
-line best and returns how far they miss it; :class:`AxisCheck` turns that into ``unknown``
+line best and returns how far they miss it; :mod:`.contact_check` turns that into ``unknown``
 with thresholds set on a model's training grasps.
 
 A record without contacts (a hand's CSV, a real hand) or with fewer than ``MIN_LINKS``
@@ -15,9 +15,7 @@ touching links gives no residual, and the check then says nothing.
 
 from __future__ import annotations
 
-from collections.abc import Callable, Mapping, Sequence
-from dataclasses import dataclass
-from typing import Any
+from collections.abc import Sequence
 
 import numpy as np
 
@@ -28,12 +26,6 @@ LOSS_KNEE = 0.002
 the axis much."""
 START_TILTS = (-0.4, 0.0, 0.4)
 """Starting tilts of the axis toward the fingers (rad-like slope): the fit's starts."""
-RATE = 0.025
-"""Share of a family's training grasps (per engine) whose residual may exceed its threshold:
-with the novelty rule's 5% on held-out folds, the two stay near the 5% in-family budget
-(docs/robustness.md, the fourth replicate's declaration)."""
-FLOOR = 0.001
-"""Least threshold (m): MuJoCo's primitive cylinders and spheres fit to 0.0."""
 
 
 def link_contacts(record) -> tuple[np.ndarray, np.ndarray]:
@@ -76,14 +68,16 @@ def _terms(theta: np.ndarray, points: np.ndarray, normals: np.ndarray):
     return e, jac
 
 
-def fit_axes(points: np.ndarray, normals: np.ndarray, mask: np.ndarray) -> np.ndarray:
-    """RMS triple product (m) of the best axis of each grasp, batched: ``points`` and
+def fit_axes(points: np.ndarray, normals: np.ndarray, mask: np.ndarray,
+             return_axes: bool = False):
+    """RMS triple product (m) of the best axis of each grasp (and the axes, (g, 4), with
+    ``return_axes``), batched: ``points`` and
     ``normals`` (g, k, 3) padded, ``mask`` (g, k) the real links. Minimises the soft-L1 cost
     of the products (knee ``LOSS_KNEE``) from each of ``START_TILTS`` by Levenberg-Marquardt
     on its reweighted least squares, and keeps the start of lowest cost."""
     g = len(points)
     if g == 0:
-        return np.zeros(0)
+        return (np.zeros(0), np.zeros((0, 4))) if return_axes else np.zeros(0)
     w_mask = mask.astype(float)
     n_links = np.maximum(w_mask.sum(axis=1), 1.0)
     mean = (points * w_mask[..., None]).sum(axis=1) / n_links[:, None]
@@ -121,7 +115,10 @@ def fit_axes(points: np.ndarray, normals: np.ndarray, mask: np.ndarray) -> np.nd
         damping = np.where(better, damping * 0.3, damping * 10.0)
     best = np.argmin(now, axis=1)
     e_best = np.take_along_axis(e, best[:, None, None], axis=1)[:, 0]
-    return np.sqrt((w_mask * e_best**2).sum(axis=1) / n_links)
+    rms = np.sqrt((w_mask * e_best**2).sum(axis=1) / n_links)
+    if return_axes:  # (ty, tz, cy, cz) of each grasp's best axis
+        return rms, np.take_along_axis(theta, best[:, None, None], axis=1)[:, 0]
+    return rms
 
 
 def axis_residuals(records: Sequence) -> list[float | None]:
@@ -147,94 +144,3 @@ def axis_residuals(records: Sequence) -> list[float | None]:
 def axis_residual(record) -> float | None:
     """:func:`axis_residuals` of one grasp."""
     return axis_residuals([record])[0]
-
-
-def _engine(record) -> str:
-    controller = getattr(record, "controller", None)
-    return str(getattr(controller, "engine", None) or "bullet")
-
-
-@dataclass(frozen=True)
-class AxisCheck:
-    """Thresholds on the axis residual, per engine and family: above the one of the family an
-    answer names, the grasp is no solid of revolution and the answer is ``unknown``."""
-
-    thresholds: Mapping[str, Mapping[str, float]]
-    """engine -> family -> threshold (m)."""
-    rate: float = RATE
-    grasps: int = 0
-    """Distinct training grasps the thresholds were set on."""
-
-    @classmethod
-    def fit(
-        cls, records: Sequence, labels: Sequence[str], groups: np.ndarray | None = None,
-        rate: float = RATE, residuals: Callable[[Sequence], list] | None = None,
-    ) -> AxisCheck | None:  # fmt: skip
-        """Thresholds from training grasps (``groups``: copies of one grasp, residual taken
-        once; ``residuals``: :func:`axis_residuals` or a cached form of it); None where no
-        family on any engine has 20 grasps with a residual."""
-        keep, seen = [], set()
-        for i in range(len(records)):
-            group = i if groups is None else int(groups[i])
-            if group not in seen:
-                seen.add(group)
-                keep.append(i)
-        distinct = [records[i] for i in keep]
-        values: dict[tuple[str, str], list[float]] = {}
-        for i, value in zip(keep, (residuals or axis_residuals)(distinct), strict=True):
-            if value is not None:
-                values.setdefault((_engine(records[i]), str(labels[i])), []).append(value)
-        thresholds: dict[str, dict[str, float]] = {}
-        for (engine, label), v in values.items():
-            if len(v) >= 20:
-                q = float(np.quantile(v, 1.0 - rate, method="higher"))
-                thresholds.setdefault(engine, {})[label] = max(q, FLOOR)
-        if not thresholds:
-            return None
-        return cls(thresholds, rate, sum(len(v) for v in values.values()))
-
-    def threshold(self, engine: str, family: str) -> float | None:
-        """The engine's threshold for ``family``, else the largest any engine has for it."""
-        own = self.thresholds.get(engine, {}).get(family)
-        if own is not None:
-            return own
-        others = [t[family] for t in self.thresholds.values() if family in t]
-        return max(others) if others else None
-
-    def residuals(self, records: Sequence) -> list[float | None]:
-        return axis_residuals(records)
-
-    def unknown(self, records: Sequence, names: Sequence[str],
-                residuals: Sequence[float | None] | None = None) -> np.ndarray:  # fmt: skip
-        """Which answers the check makes ``unknown`` (False where it has no residual or no
-        threshold for the named family)."""
-        residuals = self.residuals(records) if residuals is None else residuals
-        out = np.zeros(len(records), dtype=bool)
-        for i, (record, name, residual) in enumerate(zip(records, names, residuals, strict=True)):
-            limit = self.threshold(_engine(record), str(name))
-            out[i] = residual is not None and limit is not None and residual > limit
-        return out
-
-    def to_dict(self) -> dict[str, Any]:
-        return {"thresholds": {e: dict(t) for e, t in self.thresholds.items()},
-                "rate": self.rate, "grasps": self.grasps}  # fmt: skip
-
-    @classmethod
-    def from_dict(cls, doc: Any) -> AxisCheck:
-        """The check a model file keeps; ValueError naming what is wrong with a damaged one."""
-        if not isinstance(doc, Mapping) or not isinstance(doc.get("thresholds"), Mapping):
-            raise ValueError("its axis check has no thresholds")
-        thresholds: dict[str, dict[str, float]] = {}
-        for engine, table in doc["thresholds"].items():
-            if not isinstance(table, Mapping):
-                raise ValueError(f"its axis check's {engine!r} thresholds are not a table")
-            for family, value in table.items():
-                if isinstance(value, bool) or not isinstance(value, int | float) or \
-                        not np.isfinite(value) or value <= 0:  # fmt: skip
-                    raise ValueError(f"its axis check's threshold {engine}/{family} is not a "
-                                     "positive number")  # fmt: skip
-                thresholds.setdefault(str(engine), {})[str(family)] = float(value)
-        rate, grasps = doc.get("rate", RATE), doc.get("grasps", 0)
-        if not isinstance(rate, int | float) or not 0 < rate < 1:
-            raise ValueError("its axis check's rate is not in (0, 1)")
-        return cls(thresholds, float(rate), int(grasps) if isinstance(grasps, int) else 0)

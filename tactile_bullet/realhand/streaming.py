@@ -319,13 +319,15 @@ class Identifier:
         if record is None:
             doc = {"shape": None, "probabilities": {}, "margin": None, "ambiguous": None,
                    "cross_check": None, "unknown": False, "novelty": None,
-                   "unknown_why": None, "axis_residual_mm": None, "rotation_deg": None,
+                   "unknown_why": None, "axis_residual_mm": None,
+                   "profile_residual_mm": None, "rotation_deg": None,
                    "grasp_over": False, "samples": 0}  # fmt: skip
         else:
             over = not seg.closing or seg.settled
             answer, probabilities = self._predict(record, decide=over)
             doubt = {"margin": None, "ambiguous": None, "cross_check": None, "unknown": False,
-                     "novelty": None, "unknown_why": None, "axis_residual_mm": None}  # fmt: skip
+                     "novelty": None, "unknown_why": None, "axis_residual_mm": None,
+                     "profile_residual_mm": None}  # fmt: skip
             if over and answer is not None:
                 from ..learn.doubt import doubts
 

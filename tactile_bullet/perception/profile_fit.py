@@ -1,0 +1,228 @@
+"""Does the named family's surface explain where the grasp touched? Contact points, not normals.
+
+The axis rule (:mod:`.revolution`) sees objects that are no solid of revolution. An egg, a pear
+or a spool *is* one, so its normals meet an axis; what gives it away is its profile along that
+axis, which no family has: an egg bulges too gently for a sphere and too much for a cylinder.
+:func:`profile_residuals` fits the named family's whole surface, ends included, to every
+contact point of a grasp, the axis and the family's sizes free (the sizes within the family's
+range widened by ``SLACK``), and returns the RMS distance (m) of the points from it.
+
+The surfaces, in the meridian half-plane (s along the axis from the object's centre s0, rho
+from the axis):
+
+- cylinder: the side rho = R for |s| <= L/2 and the two flat caps;
+- cone: the side from (-L/2, R) to the apex (L/2, 0) and the flat base, either way round;
+- hyperboloid: rho = a sqrt(1 + s^2 / c^2) for |s| <= L/2 (c from the end radius e > a) and
+  the flat ends;
+- sphere: a sphere (fitted directly, algebraically: any axis through its centre fits).
+
+The torus is left out: its tube's facets (32 around it) put its own contact points 3-13 mm
+off the best torus on 2.5% of its training grasps, so a threshold there would flag nothing.
+
+The fit is batched over grasps and starts (Levenberg-Marquardt on a soft-L1 loss, with a
+forward-difference Jacobian): the axis that the normals give and the palm's own x axis, each
+with the sizes at three places in their ranges; the axis' tilt is bounded to ``TILT``, as the
+objects lie along O-O'.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import numpy as np
+
+from .revolution import MIN_LINKS, fit_axes, link_contacts
+
+SLACK = 0.15
+"""How far (a fraction of each range) a fitted size may leave the family's range."""
+KNEE = 0.001
+"""Soft-L1 knee (m): a single odd contact point does not move the fit much."""
+ITERATIONS = 20
+TILT = 0.7
+"""Largest tilt (slope) of the axis from the palm's x axis: 35 deg."""
+MIN_POINTS = 10
+"""Contact points a fit needs (it has up to 8 unknowns)."""
+SIZE_STARTS = (-1.0, 0.0, 1.0)
+"""Starting sizes, as the logistic map's argument (-1, 0, 1: a quarter, half, three quarters
+of the way through each widened range)."""
+
+RANGES: dict[str, tuple[tuple[float, float], ...]] = {
+    "cylinder": ((0.02, 0.055), (0.10, 0.18)),  # radius, length
+    "cone": ((0.03, 0.07), (0.12, 0.22)),  # base radius, length
+    "hyperboloid": ((0.02, 0.04), (1.05, 3.0), (0.10, 0.16)),  # waist, end / waist, length
+    "sphere": ((0.035, 0.07),),  # radius
+}
+"""Each modelled family's size ranges (m), those of ``objects/shapes.py``; the hyperboloid's
+end radius as a ratio to its waist, kept above 1 (a waist, never a bulge)."""
+FAMILIES = tuple(RANGES)
+
+
+def _sizes(z: np.ndarray, family: str) -> list[np.ndarray]:
+    """The sizes from their unbounded forms: a logistic map onto the widened ranges."""
+    out = []
+    for k, (lo, hi) in enumerate(RANGES[family]):
+        pad = SLACK * (hi - lo)
+        out.append(lo - pad + (hi - lo + 2 * pad) / (1.0 + np.exp(-np.clip(z[..., k], -30, 30))))
+    return out
+
+
+def _segment(s, rho, s1, r1, s2, r2):
+    """Distance from (s, rho) to the segment (s1, r1)-(s2, r2) of the meridian half-plane."""
+    ds, dr = s2 - s1, r2 - r1
+    length2 = np.maximum(ds * ds + dr * dr, 1e-12)
+    t = np.clip(((s - s1) * ds + (rho - r1) * dr) / length2, 0.0, 1.0)
+    return np.hypot(s - (s1 + t * ds), rho - (r1 + t * dr))
+
+
+def _distances(v: np.ndarray, points: np.ndarray, family: str, sign: float) -> np.ndarray:
+    """Each point's distance (..., k) from the family's surface with parameters v (..., 5 +
+    sizes) = the axis' bounded tilts (ty, tz), where it crosses x = 0 (cy, cz), the centre s0
+    along it, then the sizes' unbounded forms. ``sign`` turns a cone round."""
+    ty, tz = TILT * np.tanh(v[..., 0]), TILT * np.tanh(v[..., 1])
+    d = np.stack([np.ones_like(ty), ty, tz], axis=-1)
+    d = d / np.linalg.norm(d, axis=-1, keepdims=True)
+    c = np.stack([np.zeros_like(ty), v[..., 2], v[..., 3]], axis=-1)
+    q = points - c[..., None, :]
+    along = np.einsum("...kj,...j->...k", q, d)
+    rho = np.linalg.norm(q - along[..., None] * d[..., None, :], axis=-1)
+    s = sign * (along - v[..., 4, None])
+    p = [x[..., None] for x in _sizes(v[..., 5:], family)]
+    zero = np.zeros_like(p[0])
+    if family == "cylinder":
+        r, h = p[0], p[1] / 2
+        return np.minimum(_segment(s, rho, -h, r, h, r),
+                          np.minimum(_segment(s, rho, -h, zero, -h, r),
+                                     _segment(s, rho, h, zero, h, r)))  # fmt: skip
+    if family == "cone":
+        r, h = p[0], p[1] / 2
+        return np.minimum(_segment(s, rho, -h, r, h, zero), _segment(s, rho, -h, zero, -h, r))
+    waist, ratio, h = p[0], np.maximum(p[1], 1.0 + 1e-3), p[2] / 2
+    end = waist * ratio
+    c2 = h * h / (ratio**2 - 1.0)
+    profile = waist * np.sqrt(1.0 + s * s / c2)
+    slope = waist * s / (c2 * profile)
+    side = np.where(np.abs(s) <= h, np.abs(rho - profile) / np.sqrt(1.0 + slope**2), np.inf)
+    ends = np.minimum(_segment(s, rho, -h, zero, -h, end), _segment(s, rho, h, zero, h, end))
+    return np.minimum(side, ends)
+
+
+def _fit(points: np.ndarray, mask: np.ndarray, axes: np.ndarray, family: str) -> np.ndarray:
+    """RMS distance (m) of each grasp's points from the best surface of ``family``."""
+    g, n = len(points), len(RANGES[family])
+    tilt = np.arctanh(np.clip(axes[:, :2] / TILT, -0.95, 0.95))
+    w = mask / np.maximum(mask.sum(axis=1, keepdims=True), 1)
+    centre = (points[..., 0] * w).sum(axis=1)
+    starts = []
+    for square in (False, True):
+        for z in SIZE_STARTS:
+            v = np.zeros((g, 5 + n))
+            v[:, :2] = 0.0 if square else tilt
+            v[:, 2:4] = axes[:, 2:4]
+            v[:, 4] = centre
+            v[:, 5:] = z
+            starts.append(v)
+    v = np.stack(starts, axis=1)  # (g, starts, params)
+    best = np.full(g, np.inf)
+    for sign in (1.0, -1.0) if family == "cone" else (1.0,):
+        best = np.minimum(best, _levenberg_marquardt(v, points, mask, family, sign))
+    return best
+
+
+def _levenberg_marquardt(v, points, mask, family, sign) -> np.ndarray:
+    pts, wm = points[:, None], mask[:, None].astype(float)
+    count = np.maximum(mask.sum(axis=1), 1)
+
+    def residual(params):
+        return _distances(params, pts, family, sign) * wm
+
+    def cost(e):
+        return (wm * 2.0 * (np.sqrt(1.0 + (e / KNEE) ** 2) - 1.0)).sum(axis=-1)
+
+    e = residual(v)
+    now = cost(e)
+    damping = np.full(v.shape[:-1], 1e-3)
+    eye = np.eye(v.shape[-1])
+    step = 1e-7
+    for _ in range(ITERATIONS):
+        jac = np.stack([(residual(v + step * eye[j]) - e) / step for j in range(v.shape[-1])],
+                       axis=-1)  # fmt: skip
+        w = wm / np.sqrt(1.0 + (e / KNEE) ** 2)  # reweighted least squares of the soft-L1 loss
+        jw = jac * w[..., None]
+        a = np.einsum("...ki,...kj->...ij", jw, jac)
+        b = -np.einsum("...ki,...k->...i", jw, e)
+        scale = np.maximum(np.einsum("...ii->...i", a), 1e-12)
+        lhs = a + (damping[..., None, None] * scale[..., None, :] + 1e-12) * eye
+        trial = v + np.linalg.solve(lhs, b[..., None])[..., 0]
+        e_try = residual(trial)
+        c_try = cost(e_try)
+        better = np.isfinite(c_try) & (c_try < now)
+        v = np.where(better[..., None], trial, v)
+        e = np.where(better[..., None], e_try, e)
+        now = np.where(better, c_try, now)
+        damping = np.where(better, damping * 0.3, damping * 10.0)
+    pick = np.argmin(now, axis=1)
+    e_best = np.take_along_axis(e, pick[:, None, None], axis=1)[:, 0]
+    return np.sqrt((e_best**2).sum(axis=1) / count)
+
+
+def _sphere(points: np.ndarray, mask: np.ndarray) -> np.ndarray:
+    """RMS distance of each grasp's points from its algebraic best sphere (radius held to the
+    family's widened range)."""
+    lo, hi = RANGES["sphere"][0]
+    pad = SLACK * (hi - lo)
+    out = np.zeros(len(points))
+    for i in range(len(points)):
+        x = points[i][mask[i]]
+        a = np.c_[2.0 * x, np.ones(len(x))]
+        sol = np.linalg.lstsq(a, (x**2).sum(axis=1), rcond=None)[0]
+        centre = sol[:3]
+        radius = np.clip(np.sqrt(max(sol[3] + centre @ centre, 0.0)), lo - pad, hi + pad)
+        out[i] = np.sqrt(np.mean((np.linalg.norm(x - centre, axis=1) - radius) ** 2))
+    return out
+
+
+def _padded(arrays: list[np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
+    k = max(len(a) for a in arrays)
+    out = np.zeros((len(arrays), k, 3))
+    mask = np.zeros((len(arrays), k), dtype=bool)
+    for row, a in enumerate(arrays):
+        out[row, : len(a)], mask[row, : len(a)] = a, True
+    return out, mask
+
+
+def profile_residuals(records: Sequence, families: Sequence[str]) -> list[float | None]:
+    """How far (m, RMS) each grasp's contact points lie from the best surface of the family
+    named for it; None for a family not modelled (the torus, a plugin's), with fewer than
+    ``MIN_LINKS`` touching links or fewer than ``MIN_POINTS`` contact points."""
+    out: list[float | None] = [None] * len(records)
+    todo, links, contacts = [], [], []
+    for i, (record, family) in enumerate(zip(records, families, strict=True)):
+        if str(family) not in RANGES:
+            continue
+        points = np.asarray(getattr(record, "contact_position", ()), dtype=float).reshape(-1, 3)
+        per_link = link_contacts(record)
+        if len(points) >= MIN_POINTS and len(per_link[0]) >= MIN_LINKS:
+            todo.append(i)
+            links.append(per_link)
+            contacts.append(points)
+    if not todo:
+        return out
+    points, mask = _padded(contacts)
+    names = np.array([str(families[i]) for i in todo])
+    values = np.zeros(len(todo))
+    rows = np.flatnonzero(names == "sphere")
+    if len(rows):
+        values[rows] = _sphere(points[rows], mask[rows])
+    others = np.flatnonzero(names != "sphere")
+    if len(others):
+        link_points, link_mask = _padded([links[j][0] for j in others])
+        link_normals, _ = _padded([links[j][1] for j in others])
+        _, axes = fit_axes(link_points, link_normals, link_mask, return_axes=True)
+        for family in FAMILIES:
+            pick = np.flatnonzero(names[others] == family)
+            if len(pick):
+                rows = others[pick]
+                values[rows] = _fit(points[rows], mask[rows], axes[pick], family)
+    for i, value in zip(todo, values, strict=True):
+        out[i] = float(value)
+    return out

@@ -1,7 +1,8 @@
-"""The axis residual's latency (``perception/revolution.py``, the contact rule behind
-``unknown``): per grasp batched, one grasp at a time (what `grasp` and `identify` pay), and
-scipy's ``least_squares`` on the same soft-L1 problem from the same starts (the solver it was
-designed with), with the largest difference between the two residuals.
+"""The contact rules' latency behind ``unknown``: the axis residual (``perception/revolution.py``)
+per grasp batched, one grasp at a time (what `grasp` and `identify` pay), and scipy's
+``least_squares`` on the same soft-L1 problem from the same starts (the solver it was designed
+with), with the largest difference between the two residuals; then the profile residual
+(``perception/profile_fit.py``) batched and one at a time, on each grasp's own family.
 
 Inputs: 15 touching links per grasp on cylinders, cones and spheres turned 0-25 deg, with
 2 deg of noise on every normal (seeded): no dataset, no simulation. Ratios hold on a noisy
@@ -115,6 +116,19 @@ def main(argv=None) -> int:
     print(f"residuals: batched against one at a time within {1e3 * same:.2g} mm, against "
           f"scipy within {1e3 * diff:.2g} mm (median residual "
           f"{1e3 * float(np.median(batched)):.2f} mm)")  # fmt: skip
+    from tactile_bullet.perception.profile_fit import profile_residuals
+
+    families = [("cylinder", "cone", "sphere")[i % 3] for i in range(len(records))]
+    start = time.perf_counter()
+    profiles = profile_residuals(records, families)
+    p_batch = (time.perf_counter() - start) / len(records)
+    start = time.perf_counter()
+    for r, f in zip(records[:20], families[:20], strict=True):
+        profile_residuals([r], [f])
+    p_single = (time.perf_counter() - start) / 20
+    print(f"profile residual: batched {1e3 * p_batch:.2f} ms a grasp, one at a time "
+          f"{1e3 * p_single:.1f} ms (median {1e3 * float(np.median(profiles)):.3f} mm on each "
+          "grasp's own family)")  # fmt: skip
     return 0
 
 

@@ -239,6 +239,8 @@ def test_evaluate_text_says_how_many_answers_the_contacts_made_unknown():
     report = {"accuracy": 0.5, "records": 4, "classes": ["cylinder", "sphere"],
               "confusion_matrix": [[1, 1], [1, 1]],
               "unknown": {"threshold": 1.0, "in_family": 0.25, "out_of_family": None,
-                          "in_family_grasps": 4, "out_of_family_grasps": 0, "by_axis": 1}}
+                          "in_family_grasps": 4, "out_of_family_grasps": 0, "by_axis": 1,
+                          "by_profile": 2}}
     line = next(x for x in summary_text(report).splitlines() if x.startswith("unknown"))
     assert "25% of 4 grasps" in line and "1 because the contacts fit no solid" in line
+    assert "2 because they fit no profile" in line

@@ -264,6 +264,8 @@ def summary_text(report: Mapping[str, Any]) -> str:
             f"of {unknown['out_of_family_grasps']} grasps of other objects"
             + (f"; {unknown['by_axis']} because the contacts fit no solid of revolution"
                if unknown.get("by_axis") else "")
+            + (f"; {unknown['by_profile']} because they fit no profile of the family named"
+               if unknown.get("by_profile") else "")
         )  # fmt: skip
     blank = []
     for kind in ("by_size", "by_position", "by_rotation"):

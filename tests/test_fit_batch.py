@@ -55,7 +55,7 @@ FORKS = pytest.mark.skipif(not sys.platform.startswith("linux"), reason="fit_man
 @FORKS
 def test_fits_split_over_workers_equal_the_fits_made_here(fresh_cache):
     angles = _angles(fit_batch.MIN_PARALLEL + 8)
-    assert fit_batch._can_fork(), "one thread, not a daemon: fit_many forks here"
+    assert fit_batch.can_fork(), "one thread, not a daemon: fit_many forks here"
     parallel = fit_batch.fit_many(angles, FAMILIES, workers=2)
     shape_fit._FITS.clear()
     here = [shape_fit.fit_shape(a, FAMILIES) for a in angles]
@@ -84,7 +84,7 @@ def test_a_threaded_process_fits_here_and_gets_the_same_answers(fresh_cache):
     idle = threading.Thread(target=stop.wait)  # a second thread: forking is not safe
     idle.start()
     try:
-        assert not fit_batch._can_fork()
+        assert not fit_batch.can_fork()
         run()
     finally:
         stop.set()

@@ -244,3 +244,20 @@ def test_evaluate_text_says_how_many_answers_the_contacts_made_unknown():
     line = next(x for x in summary_text(report).splitlines() if x.startswith("unknown"))
     assert "25% of 4 grasps" in line and "1 because the contacts fit no solid" in line
     assert "2 because they fit no profile" in line
+
+
+def test_many_verdicts_split_over_workers_equal_those_computed_here():
+    from tactile_bullet.perception import contact_check
+
+    rng = np.random.default_rng(7)
+    records, labels = _training(rng, n=40)
+    check = ContactCheck.fit(records, labels)
+    batch = [*records, *[_box() for _ in range(10)]]
+    names = [*labels, *["cylinder"] * 10]
+    assert len(batch) >= contact_check.MIN_PARALLEL
+    here = check.verdicts(batch, names)
+    split = check.verdicts_many(batch, names)
+    assert [v.unknown_why for v in split] == [v.unknown_why for v in here]
+    assert [v.unknown_why for v in split[-10:]] == ["axis"] * 10
+    for a, b in zip(here, split, strict=True):
+        assert b.axis_residual == pytest.approx(a.axis_residual, abs=1e-9)

@@ -516,7 +516,7 @@ def doubts(
     axis = getattr(model, "axis", None)
     verdicts: Sequence[Any] = [None] * len(names)
     if axis is not None and len(records):
-        verdicts = axis.verdicts(records, names)
+        verdicts = axis.verdicts_many(records, names)
     return [
         answer_doubt(classes, str(n), None if proba is None else proba[i], threshold, others[i],
                      scores[i], limit, verdicts[i])  # fmt: skip

@@ -48,7 +48,7 @@ def usable_cores() -> int:
         return os.cpu_count() or 1
 
 
-def _can_fork() -> bool:
+def can_fork() -> bool:
     """Linux only: on macOS a forked child of a process that has used the system's numerical
     libraries can crash, and Windows has no fork."""
     import multiprocessing
@@ -88,7 +88,7 @@ def fit_many(
     workers = usable_cores() if workers is None else workers
     workers = min(workers, -(-len(todo) // CHUNK))
     done = len(rows) - len(todo)
-    if len(todo) >= MIN_PARALLEL and workers > 1 and _can_fork():
+    if len(todo) >= MIN_PARALLEL and workers > 1 and can_fork():
         import multiprocessing  # here: a single answer (grasp, identify) does not import them
         from concurrent.futures import ProcessPoolExecutor
         from concurrent.futures.process import BrokenProcessPool

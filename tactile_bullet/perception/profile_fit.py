@@ -32,6 +32,7 @@ from collections.abc import Sequence
 import numpy as np
 
 from .revolution import MIN_LINKS, fit_axes, link_contacts
+from .robust_lm import soft_l1_cost, soft_l1_step
 
 SLACK = 0.15
 """How far (a fraction of each range) a fitted size may leave the family's range."""
@@ -135,26 +136,17 @@ def _levenberg_marquardt(v, points, mask, family, sign) -> np.ndarray:
     def residual(params):
         return _distances(params, pts, family, sign) * wm
 
-    def cost(e):
-        return (wm * 2.0 * (np.sqrt(1.0 + (e / KNEE) ** 2) - 1.0)).sum(axis=-1)
-
     e = residual(v)
-    now = cost(e)
+    now = soft_l1_cost(e, wm, KNEE)
     damping = np.full(v.shape[:-1], 1e-3)
     eye = np.eye(v.shape[-1])
     step = 1e-7
     for _ in range(ITERATIONS):
         jac = np.stack([(residual(v + step * eye[j]) - e) / step for j in range(v.shape[-1])],
                        axis=-1)  # fmt: skip
-        w = wm / np.sqrt(1.0 + (e / KNEE) ** 2)  # reweighted least squares of the soft-L1 loss
-        jw = jac * w[..., None]
-        a = np.einsum("...ki,...kj->...ij", jw, jac)
-        b = -np.einsum("...ki,...k->...i", jw, e)
-        scale = np.maximum(np.einsum("...ii->...i", a), 1e-12)
-        lhs = a + (damping[..., None, None] * scale[..., None, :] + 1e-12) * eye
-        trial = v + np.linalg.solve(lhs, b[..., None])[..., 0]
+        trial = v + soft_l1_step(jac, e, wm, KNEE, damping)
         e_try = residual(trial)
-        c_try = cost(e_try)
+        c_try = soft_l1_cost(e_try, wm, KNEE)
         better = np.isfinite(c_try) & (c_try < now)
         v = np.where(better[..., None], trial, v)
         e = np.where(better[..., None], e_try, e)

@@ -19,6 +19,8 @@ from collections.abc import Sequence
 
 import numpy as np
 
+from .robust_lm import soft_l1_cost, soft_l1_step
+
 MIN_LINKS = 5
 """Touching links a residual needs: the axis has 4 unknowns."""
 LOSS_KNEE = 0.002
@@ -89,29 +91,19 @@ def fit_axes(points: np.ndarray, normals: np.ndarray, mask: np.ndarray,
     pts, nrm = points[:, None], normals[:, None]
     wm = w_mask[:, None]
 
-    def cost(e):
-        z = (e / LOSS_KNEE) ** 2
-        return (wm * 2.0 * (np.sqrt(1.0 + z) - 1.0)).sum(axis=-1)
 
     damping = np.full(theta.shape[:-1], 1e-3)
     e, jac = _terms(theta, pts, nrm)
-    now = cost(e)
-    eye = np.eye(4)
+    now = soft_l1_cost(e, wm, LOSS_KNEE)
     for _ in range(ITERATIONS):
-        w = wm / np.sqrt(1.0 + (e / LOSS_KNEE) ** 2)  # IRLS weights of the soft-L1 loss
-        jw = jac * w[..., None]
-        a = np.einsum("...ki,...kj->...ij", jw, jac)
-        b = -np.einsum("...ki,...k->...i", jw, e)
-        scale = np.maximum(np.einsum("...ii->...i", a), 1e-12)
-        # the ridge keeps a sphere's system regular: any axis through its centre fits
-        lhs = a + (damping[..., None, None] * scale[..., None, :] + 1e-12) * eye
-        trial = theta + np.linalg.solve(lhs, b[..., None])[..., 0]
+        trial = theta + soft_l1_step(jac, e, wm, LOSS_KNEE, damping)
         e_try, jac_try = _terms(trial, pts, nrm)
-        better = cost(e_try) < now
+        cost = soft_l1_cost(e_try, wm, LOSS_KNEE)
+        better = cost < now
         theta = np.where(better[..., None], trial, theta)
         e = np.where(better[..., None], e_try, e)
         jac = np.where(better[..., None, None], jac_try, jac)
-        now = np.where(better, cost(e_try), now)
+        now = np.where(better, cost, now)
         damping = np.where(better, damping * 0.3, damping * 10.0)
     best = np.argmin(now, axis=1)
     e_best = np.take_along_axis(e, best[:, None, None], axis=1)[:, 0]

@@ -16,7 +16,7 @@ from typing import Any
 import numpy as np
 
 from .profile_fit import profile_residuals
-from .revolution import axis_residuals
+from .revolution import axis_fits, axis_residuals
 
 RATE = 0.025
 """Share of a family's training grasps (per engine) whose residual may exceed its threshold:
@@ -115,16 +115,17 @@ class ContactCheck:
         others = [t[family] for t in table.values() if family in t]
         return max(others) if others else None
 
-    def residuals(self, records: Sequence) -> list[float | None]:
-        return axis_residuals(records)
-
     def verdicts(
         self, records: Sequence, names: Sequence[str],
         residuals: Sequence[float | None] | None = None, profiles: Callable | None = None,
     ) -> list[Verdict]:  # fmt: skip
         """What each grasp's contacts say of the family its answer ``names``: the axis rule
         first; the profile rule where the axis rule finds a solid of revolution."""
-        axis = self.residuals(records) if residuals is None else list(residuals)
+        fitted: Sequence[np.ndarray | None] | None = None  # each grasp's axis, fitted once
+        if residuals is None:
+            axis, fitted = axis_fits(records)
+        else:
+            axis = list(residuals)
         engines = [_engine(r) for r in records]
         out: list[dict[str, Any]] = [{"axis_residual": a} for a in axis]
         profiled = []
@@ -136,8 +137,14 @@ class ContactCheck:
                 out[i]["unknown_why"] = "axis"
             elif self.threshold(engines[i], str(name), self.profile) is not None:
                 profiled.append(i)
-        values = (profiles or profile_residuals)([records[i] for i in profiled],
-                                   [str(names[i]) for i in profiled])  # fmt: skip
+        chosen = [records[i] for i in profiled]
+        families = [str(names[i]) for i in profiled]
+        if profiles is not None:  # a cached form (the robustness matrix)
+            values = profiles(chosen, families)
+        else:
+            values = profile_residuals(chosen, families,
+                                       None if fitted is None else [fitted[i] for i in profiled])
+
         for i, p in zip(profiled, values, strict=True):
             out[i]["profile_residual"] = p
             if p is not None and p > self.threshold(engines[i], str(names[i]), self.profile):

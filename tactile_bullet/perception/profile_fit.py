@@ -31,7 +31,7 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from .revolution import MIN_LINKS, fit_axes, link_contacts
+from .revolution import MIN_LINKS, axis_fits, link_contacts, padded
 from .robust_lm import soft_l1_cost, soft_l1_step
 
 SLACK = 0.15
@@ -173,33 +173,25 @@ def _sphere(points: np.ndarray, mask: np.ndarray) -> np.ndarray:
     return out
 
 
-def _padded(arrays: list[np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
-    k = max(len(a) for a in arrays)
-    out = np.zeros((len(arrays), k, 3))
-    mask = np.zeros((len(arrays), k), dtype=bool)
-    for row, a in enumerate(arrays):
-        out[row, : len(a)], mask[row, : len(a)] = a, True
-    return out, mask
-
-
-def profile_residuals(records: Sequence, families: Sequence[str]) -> list[float | None]:
+def profile_residuals(records: Sequence, families: Sequence[str],
+                      axes: Sequence[np.ndarray | None] | None = None) -> list[float | None]:
     """How far (m, RMS) each grasp's contact points lie from the best surface of the family
     named for it; None for a family not modelled (the torus, a plugin's), with fewer than
-    ``MIN_LINKS`` touching links or fewer than ``MIN_POINTS`` contact points."""
+    ``MIN_LINKS`` touching links or fewer than ``MIN_POINTS`` contact points. ``axes``: each
+    grasp's axis where the caller has fitted it already (:func:`.revolution.axis_fits`), else
+    fitted here."""
     out: list[float | None] = [None] * len(records)
-    todo, links, contacts = [], [], []
+    todo, contacts = [], []
     for i, (record, family) in enumerate(zip(records, families, strict=True)):
         if str(family) not in RANGES:
             continue
         points = np.asarray(getattr(record, "contact_position", ()), dtype=float).reshape(-1, 3)
-        per_link = link_contacts(record)
-        if len(points) >= MIN_POINTS and len(per_link[0]) >= MIN_LINKS:
+        if len(points) >= MIN_POINTS and len(link_contacts(record)[0]) >= MIN_LINKS:
             todo.append(i)
-            links.append(per_link)
             contacts.append(points)
     if not todo:
         return out
-    points, mask = _padded(contacts)
+    points, mask = padded(contacts)
     names = np.array([str(families[i]) for i in todo])
     values = np.zeros(len(todo))
     rows = np.flatnonzero(names == "sphere")
@@ -207,14 +199,15 @@ def profile_residuals(records: Sequence, families: Sequence[str]) -> list[float 
         values[rows] = _sphere(points[rows], mask[rows])
     others = np.flatnonzero(names != "sphere")
     if len(others):
-        link_points, link_mask = _padded([links[j][0] for j in others])
-        link_normals, _ = _padded([links[j][1] for j in others])
-        _, axes = fit_axes(link_points, link_normals, link_mask, return_axes=True)
+        given = None if axes is None else [axes[todo[j]] for j in others]
+        if given is None or any(a is None for a in given):
+            given = axis_fits([records[todo[j]] for j in others])[1]
+        start = np.stack(given)
         for family in FAMILIES:
             pick = np.flatnonzero(names[others] == family)
             if len(pick):
                 rows = others[pick]
-                values[rows] = _fit(points[rows], mask[rows], axes[pick], family)
+                values[rows] = _fit(points[rows], mask[rows], start[pick], family)
     for i, value in zip(todo, values, strict=True):
         out[i] = float(value)
     return out

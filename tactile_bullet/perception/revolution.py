@@ -90,8 +90,6 @@ def fit_axes(points: np.ndarray, normals: np.ndarray, mask: np.ndarray,
     theta[..., 3] = mean[:, 2][:, None]
     pts, nrm = points[:, None], normals[:, None]
     wm = w_mask[:, None]
-
-
     damping = np.full(theta.shape[:-1], 1e-3)
     e, jac = _terms(theta, pts, nrm)
     now = soft_l1_cost(e, wm, LOSS_KNEE)
@@ -113,24 +111,38 @@ def fit_axes(points: np.ndarray, normals: np.ndarray, mask: np.ndarray,
     return rms
 
 
+def padded(arrays: Sequence[np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
+    """(g, k, 3) rows of (k_i, 3) arrays padded with zeros to the longest, and the (g, k) mask
+    of the real ones: what the batched fits take."""
+    k = max(len(a) for a in arrays)
+    out = np.zeros((len(arrays), k, 3))
+    mask = np.zeros((len(arrays), k), dtype=bool)
+    for row, a in enumerate(arrays):
+        out[row, : len(a)], mask[row, : len(a)] = a, True
+    return out, mask
+
+
+def axis_fits(records: Sequence) -> tuple[list[float | None], list[np.ndarray | None]]:
+    """Each grasp's axis residual (:func:`axis_residuals`) and its best axis (ty, tz, cy, cz),
+    both None with fewer than ``MIN_LINKS`` links: the profile fit starts from the axis."""
+    parts = [link_contacts(r) for r in records]
+    todo = [i for i, (p, _) in enumerate(parts) if len(p) >= MIN_LINKS]
+    residuals: list[float | None] = [None] * len(records)
+    axes: list[np.ndarray | None] = [None] * len(records)
+    if not todo:
+        return residuals, axes
+    points, mask = padded([parts[i][0] for i in todo])
+    normals, _ = padded([parts[i][1] for i in todo])
+    rms, best = fit_axes(points, normals, mask, return_axes=True)
+    for row, i in enumerate(todo):
+        residuals[i], axes[i] = float(rms[row]), best[row]
+    return residuals, axes
+
+
 def axis_residuals(records: Sequence) -> list[float | None]:
     """How far (m, RMS) the normal lines of each grasp's touching links miss the axis that
     fits them best; None with fewer than ``MIN_LINKS`` links (no contacts: a recording)."""
-    parts = [link_contacts(r) for r in records]
-    todo = [i for i, (p, _) in enumerate(parts) if len(p) >= MIN_LINKS]
-    out: list[float | None] = [None] * len(records)
-    if not todo:
-        return out
-    k = max(len(parts[i][0]) for i in todo)
-    points = np.zeros((len(todo), k, 3))
-    normals = np.zeros((len(todo), k, 3))
-    mask = np.zeros((len(todo), k), dtype=bool)
-    for row, i in enumerate(todo):
-        p, n = parts[i]
-        points[row, : len(p)], normals[row, : len(p)], mask[row, : len(p)] = p, n, True
-    for i, value in zip(todo, fit_axes(points, normals, mask), strict=True):
-        out[i] = float(value)
-    return out
+    return axis_fits(records)[0]
 
 
 def axis_residual(record) -> float | None:

@@ -32,6 +32,8 @@ FAST: dict[str, tuple[str, ...]] = {
 arguments ``python -m benchmarks`` runs them with."""
 
 NEEDS: dict[str, str] = {
+    "unknown_by_rule": "a robustness matrix's cache (--cache DIR/data, --replicate K) or a "
+    "labelled dataset (--data DIR); seconds",
     "axis_residual_figure": "a robustness matrix's cache (--cache DIR/data) with its training "
     "and out-of-family sets; seconds",
     "cylinder_cone_fit": "no dataset; simulates four cylinders (seconds)",

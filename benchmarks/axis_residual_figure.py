@@ -8,7 +8,8 @@ horizontal marks are the default identifier's thresholds for each family on Bull
 (``perception/contact_check.py``, docs/doubt.md "Objects of no family"). A dot of an object of
 no family above the threshold of the family the default names for it is answered ``unknown``;
 the figure puts the threshold of its most common name beside it (the bottom panel measures
-each grasp against the family it is named). Prints each column's median and share above.
+each grasp against the family it is named). Prints each column's median, largest and
+share above.
 
     python benchmarks/axis_residual_figure.py --cache OUT/data \\
         --family robust-bullet-train-randomized,robust-bullet-posed-randomized \\
@@ -57,8 +58,8 @@ def _panel(ax, columns, families, usual, thresholds) -> None:
         if limit is not None:
             ax.hlines(1000 * limit, i - 0.4, i + 0.4, color="black", lw=1.5)
         above = f"{100 * float(np.mean(v > 1000 * limit)):.0f}%" if limit is not None else "-"
-        print(f"  {label:18s} n={len(v):3d} median {np.median(v):6.2f} mm, above the "
-              f"{family} threshold: {above}")  # fmt: skip
+        print(f"  {label:18s} n={len(v):3d} median {np.median(v):6.2f} mm, largest "
+              f"{v.max():6.2f} mm, above the {family} threshold: {above}")  # fmt: skip
     ticks = [o if o in families else f"{o}\n({usual[o]})" for o in order]
     ax.set_xticks(range(len(order)), ticks, rotation=60, ha="right", fontsize=8)
     ax.set_yscale("log")

@@ -17,7 +17,8 @@ from the axis):
 - sphere: a sphere (fitted directly, algebraically: any axis through its centre fits).
 
 The torus is left out: its tube's facets (32 around it) put its own contact points 3-13 mm
-off the best torus on 2.5% of its training grasps, so a threshold there would flag nothing.
+off the best torus on 2.5% of its training grasps (a prototype that modelled it), so a
+threshold there would flag nothing.
 
 The fit is batched over grasps and starts (Levenberg-Marquardt on a soft-L1 loss, with a
 forward-difference Jacobian): the axis that the normals give and the palm's own x axis, each

@@ -1,0 +1,94 @@
+"""Which rule answers ``unknown``, set by set and object by object: the shipped default (or
+``--model``) on a robustness matrix's cached grasps.
+
+For each out-of-family set, the share answered unknown, by rule (novelty, the axis rule, the
+profile rule: docs/doubt.md "Objects of no family") and how many of each object; for each
+in-family column asked for (read as the matrix reads it, ``noise`` through joint noise), the
+share answered unknown by rule and which grasps (true shape -> the answer, the rule). What
+docs/robustness.md's replicate tables break down by rule comes from here.
+
+    python benchmarks/unknown_by_rule.py --cache OUT/data --replicate 5 \\
+        --columns mujoco,household,noise
+    python benchmarks/unknown_by_rule.py --data DIR   # any labelled dataset, as simulated
+"""
+
+from __future__ import annotations
+
+import argparse
+from collections import Counter, defaultdict
+from pathlib import Path
+
+import numpy as np
+from _report import provenance  # first: this checkout ahead of an installed copy
+
+from tactile_bullet.datasets.dataset import read_records
+from tactile_bullet.experiments.robustness_sets import COLUMNS, OUT_OF_FAMILY_SETS, read_column
+from tactile_bullet.learn.default import resolve_model
+from tactile_bullet.learn.doubt import NOT_PROFILE, NOT_REVOLUTION, UNLIKE_TRAINING, doubts
+
+RULES = {UNLIKE_TRAINING: "novelty", NOT_REVOLUTION: "axis", NOT_PROFILE: "profile"}
+
+
+def _answers(model, records):
+    names = [str(n) for n in model.predict_records(records)]
+    found = doubts(model, records, names, None, cross_check=False)
+    return names, [RULES.get(d["unknown_why"]) for d in found]
+
+
+def _shares(rules: list) -> str:
+    n = len(rules)
+    counts = Counter(r for r in rules if r)
+    parts = ", ".join(f"{k} {100 * counts[k] / n:.1f}%" for k in ("novelty", "axis", "profile"))
+    return f"{len(rules)} grasps, unknown {100 * sum(counts.values()) / n:.1f}% ({parts})"
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--cache", help="a robustness matrix's data folder")
+    ap.add_argument("--data", help="instead: one labelled dataset, read as simulated")
+    ap.add_argument("--replicate", type=int, default=0, help="the run's --replicate")
+    ap.add_argument("--columns", default="mujoco,household,noise", help="in-family columns")
+    ap.add_argument("--model", default=None, help="a model file (default: the shipped one)")
+    ap.add_argument("--seed", type=int, default=0, help="the run's --seed")
+    args = ap.parse_args(argv)
+    provenance(argv)
+    model = resolve_model(args.model)
+    if args.data:
+        _breakdown("data " + args.data, model, read_records(args.data).records)
+        return 0
+    if not args.cache:
+        ap.error("give --cache (a robustness matrix's data) or --data")
+    tag = f"-r{args.replicate}" if args.replicate else ""
+    cache = Path(args.cache)
+    for name in OUT_OF_FAMILY_SETS:
+        records = read_records(cache / f"robust-{name}{tag}").records
+        _, rules = _answers(model, records)
+        per: dict[str, list] = defaultdict(list)
+        for r, rule in zip(records, rules, strict=True):
+            per[(r.mesh or {}).get("name") or r.shape].append(rule)
+        print(f"{name}: {_shares(rules)}")
+        order = sorted(per, key=lambda k: -np.mean([x is not None for x in per[k]]))
+        print("  " + ", ".join(f"{k} {sum(x is not None for x in per[k])}/{len(per[k])}"
+                               for k in order))  # fmt: skip
+    table = {c.name: c for c in COLUMNS}
+    for name in args.columns.split(","):
+        column = table[name]
+        sets = {s: read_records(cache / f"robust-{s}{tag}").records for s in column.sets}
+        _breakdown(f"column {name}", model, read_column(column, sets, args.seed))
+    return 0
+
+
+def _breakdown(title: str, model, records) -> None:
+    """In-family grasps: the share answered unknown by rule, and which ones (right or not)."""
+    names, rules = _answers(model, records)
+    wrong = sum(bool(rule) and r.shape != n for r, n, rule in zip(records, names, rules,
+                                                                   strict=True))  # fmt: skip
+    print(f"{title}: {_shares(rules)}; {wrong} of them wrong answers")
+    which = Counter((r.shape, n, rule) for r, n, rule in zip(records, names, rules,
+                                                             strict=True) if rule)  # fmt: skip
+    for (truth, answer, rule), k in which.most_common():
+        print(f"  {k} x {truth} answered {answer}: {rule}")
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

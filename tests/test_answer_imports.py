@@ -151,8 +151,64 @@ def test_a_grasp_of_a_size_grasped_before_imports_neither_trimesh_nor_scikit_lea
         assert done.returncode == 0, done.stderr
         flags = done.stderr.rsplit("IMPORTED", 1)[1].split()
         runs.append((json.loads(done.stdout)["answer"]["shape"], flags))
-    assert runs[0] == ("torus", ["1", "0"])  # built the pieces with trimesh
+    assert runs[0] == ("torus", ["0", "0"])  # built the pieces (without trimesh)
     assert runs[1] == ("torus", ["0", "0"])  # read them back
+
+
+REVOLVED = ("cone", "sphere", "cylinder", "ovoid", "torus", "hyperboloid")
+
+
+def _sizes(shape, draws: int = 4) -> list[dict[str, float]]:
+    """Both ends of every range and draws inside them (valid sizes only: a hyperboloid's ends
+    are wider than its waist)."""
+    rng = np.random.default_rng(7)
+    out = [{k: p.min for k, p in shape.params.items()}, {k: p.max for k, p in shape.params.items()}]
+    while len(out) < 2 + draws:
+        params = {k: float(rng.uniform(p.min, p.max)) for k, p in shape.params.items()}
+        if shape.name != "hyperboloid" or params["end_radius"] > params["waist_radius"]:
+            out.append(params)
+    return out
+
+
+@pytest.mark.parametrize("name", REVOLVED)
+def test_a_revolved_piece_is_its_meshs_points_and_faces_to_the_bit(name):
+    """The built-in pieces are built without trimesh; Bullet must get the very points,
+    triangles and order the mesh-based build gave it, at both ends of every range and
+    inside them."""
+    from tactile_bullet.objects.shapes import COLLISION_SECTIONS
+
+    shape = next(s for s in BUILTIN_SHAPES if s.name == name)
+    for params in _sizes(shape):
+        (piece,) = shape.pieces.__wrapped__(**params)
+        mesh = shape.mesh(**params, sections=COLLISION_SECTIONS)
+        vertices = np.asarray(getattr(piece, "vertices", piece))
+        assert vertices.dtype == np.float64
+        assert np.array_equal(vertices, np.asarray(mesh.vertices)), params
+        if name in ("torus", "hyperboloid"):
+            assert np.array_equal(piece.faces, np.asarray(mesh.faces)), params
+        else:
+            assert not hasattr(piece, "faces")  # a convex hull: its points only
+
+
+@pytest.mark.parametrize("shape, param", [("sphere", "radius"), ("torus", "minor_radius")])
+def test_a_grasp_of_a_new_size_imports_no_trimesh(shape, param, cache_home):
+    import os
+
+    code = (
+        "import atexit, runpy, sys\n"
+        "atexit.register(lambda: sys.stderr.write('\\nIMPORTED %d\\n' % (\n"
+        "    'trimesh' in sys.modules)))\n"
+        f"sys.argv = ['tactile-bullet', 'grasp', '--shape', {shape!r}, '--param',\n"
+        f"            '{param}=0.0461', '--json']\n"
+        "runpy.run_module('tactile_bullet.cli', run_name='__main__')\n"
+    )
+    env = {**os.environ, "TACTILE_BULLET_CACHE": str(cache_home)}
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                          env=env, timeout=300)  # fmt: skip
+    assert done.returncode == 0, done.stderr
+    assert json.loads(done.stdout)["answer"]["shape"] == shape
+    assert done.stderr.rsplit("IMPORTED", 1)[1].split() == ["0"]
+    assert len(list((cache_home / "pieces").glob(f"{shape}-*.npz"))) == 1  # built, then kept
 
 
 def test_a_shape_fit_model_saves_without_skops_and_refuses_a_damaged_state(tmp_path):
@@ -174,8 +230,11 @@ def test_a_shape_fit_model_saves_without_skops_and_refuses_a_damaged_state(tmp_p
         ({**state, "params": {"temperature": -1.0, "calibration": None}}, arrays, "temperature"),
         ({**state, "n_features_in": 5}, arrays, "columns"),
         (state, {"classes": np.array(["cone", "teapot"])}, "teapot"),
-        ({**state, "params": {"temperature": 1.0, "calibration": {"gain": 2}}}, arrays,
-         "calibration"),
+        (
+            {**state, "params": {"temperature": 1.0, "calibration": {"gain": 2}}},
+            arrays,
+            "calibration",
+        ),
     ]:
         for kind in (ShapeFitClassifier, ShapeFitVote):  # the estimator and its loaded form
             with pytest.raises(ValueError, match=message):

@@ -7,9 +7,10 @@ once placed), centred on the origin. Each one gives three things:
 - ``radius(x, **params)``: the radius profile r(x) along O-O' (0 outside the solid), what a
   finger wrapping the cross-section at x adapts to (thesis eq. 2.3, theta = s / r);
 - ``pieces(**params)``: the collision geometry for Bullet: convex vertex sets (hulls), or a
-  trimesh for an exact static triangle mesh. Convex shapes are one hull; the torus and the
-  hyperboloid are triangle meshes, so the hole and the waist stay (never the convex hull of a
-  concave solid).
+  ``Surface`` (vertices, faces) for an exact static triangle mesh. Convex shapes are one hull;
+  the torus and the hyperboloid are triangle meshes, so the hole and the waist stay (never the
+  convex hull of a concave solid). The built-in revolved ones are made without trimesh
+  (``revolved_surface``), the same to the bit as their meshes.
 
 Sizes are in metres. Valid ranges are where the object clears the open hand and the grasp
 closes on it (both ends of every range were simulated; at the largest sphere and ovoid one
@@ -26,7 +27,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from ..errors import UsageError
-from .piece_cache import cached
+from .piece_cache import Surface, cached
 
 if TYPE_CHECKING:
     import trimesh
@@ -199,24 +200,89 @@ def _flat_ends(radius_fn, half: float, n: int = 32, **params) -> tuple[np.ndarra
     return np.concatenate([[-half], x, [half]]), np.concatenate([[0.0], r, [0.0]])
 
 
+# The closed radius profiles (x along O-O', r from 0 back to 0) of the revolved solids; the
+# mesh revolves one with trimesh, the collision hull takes its points (revolved_points).
+
+
+def cylinder_profile(radius: float, length: float, sections: int = SECTIONS):
+    return _flat_ends(cylinder_radius, length / 2, 2, radius=radius, length=length)
+
+
+def cone_profile(radius: float, length: float, sections: int = SECTIONS):
+    return np.array([-length / 2, -length / 2, length / 2]), np.array([0.0, radius, 0.0])
+
+
+def sphere_profile(radius: float, sections: int = SECTIONS):
+    return _profile(sphere_radius, radius, sections // 2 + 1, radius=radius)
+
+
+def ovoid_profile(radius: float, length: float, asymmetry: float, sections: int = SECTIONS):
+    return _profile(
+        ovoid_radius, length / 2, sections, radius=radius, length=length, asymmetry=asymmetry
+    )
+
+
+def torus_profile(major_radius: float, minor_radius: float, sections: int = 32):
+    """The tube's circle (``sections`` facets, first point repeated last), as revolved."""
+    phi = np.linspace(0.0, 2.0 * np.pi, sections + 1)
+    return minor_radius * np.sin(phi), minor_radius * np.cos(phi) + major_radius
+
+
+def hyperboloid_profile(
+    waist_radius: float, end_radius: float, length: float, sections: int = SECTIONS
+):
+    return _flat_ends(
+        hyperboloid_radius, length / 2, 33,
+        waist_radius=waist_radius, end_radius=end_radius, length=length,
+    )  # fmt: skip
+
+
+def revolved_surface(x: np.ndarray, r: np.ndarray, sections: int) -> Surface:
+    """The profile (x, r) revolved ``sections`` times around O-O' as a triangle surface, in
+    the order and to the bit that ``_revolve``'s (or ``torus``'s) trimesh mesh has it:
+    vertices slice by slice, those trimesh merges (equal to 8 decimals: the points on the
+    axis, a closed profile's repeated point) kept once where first met, zero-area triangles
+    dropped. The collision pieces are built from it without importing trimesh (~0.5 s, half
+    of a command-line grasp's budget beyond its simulation for a size not cached yet);
+    tests/test_answer_imports.py holds it equal to trimesh's meshes over the shapes' ranges.
+    The angles, products and signs are ``trimesh.creation.revolve``'s followed by
+    ``_Z_TO_X`` (x, y, z) -> (z, y, -x)."""
+    x, r = np.asarray(x, float), np.asarray(r, float)
+    per = len(x)
+    theta = np.linspace(0.0, 2.0 * np.pi, sections + 1)
+    vertices = np.column_stack([
+        np.tile(x, sections + 1), (np.sin(theta)[:, None] * r).ravel(),
+        -(np.cos(theta)[:, None] * r).ravel(),
+    ])[:-per]  # fmt: skip
+    quad = np.array([0, per, 1, 1, per, per + 1])
+    single = np.tile(quad, per - 1).reshape(-1, 3) + np.repeat(np.arange(per - 1), 2)[:, None]
+    corners = vertices[single]
+    cross = np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])
+    single = single[np.linalg.norm(cross, axis=1) / 2 > 1e-8]
+    offsets = np.repeat(np.arange(sections) * per, len(single))[:, None]
+    faces = (np.tile(single, (sections, 1)) + offsets) % len(vertices)
+    _, first, group = np.unique(np.round(vertices * 1e8), axis=0, return_index=True,
+                                return_inverse=True)  # fmt: skip
+    rank = np.empty(len(first), np.int64)
+    rank[np.argsort(first)] = np.arange(len(first))
+    return Surface(vertices[np.sort(first)], rank[group.ravel()][faces])
+
+
 def cylinder(
     radius: float = 0.035, length: float = 0.12, sections: int = SECTIONS
 ) -> trimesh.Trimesh:
     """Cylinder of ``radius`` (m) and ``length`` (m) along O-O'."""
-    x, r = _flat_ends(cylinder_radius, length / 2, 2, radius=radius, length=length)
-    return _revolve(x, r, sections)
+    return _revolve(*cylinder_profile(radius, length), sections)
 
 
 def cone(radius: float = 0.05, length: float = 0.16, sections: int = SECTIONS) -> trimesh.Trimesh:
     """Cone of base ``radius`` (m) at -length/2 and apex at +length/2 (m)."""
-    x = np.array([-length / 2, -length / 2, length / 2])
-    r = np.array([0.0, radius, 0.0])
-    return _revolve(x, r, sections)
+    return _revolve(*cone_profile(radius, length), sections)
 
 
 def sphere(radius: float = 0.045, sections: int = SECTIONS) -> trimesh.Trimesh:
     """Sphere of ``radius`` (m)."""
-    return _revolve(*_profile(sphere_radius, radius, sections // 2 + 1, radius=radius), sections)
+    return _revolve(*sphere_profile(radius, sections), sections)
 
 
 def torus(
@@ -235,21 +301,14 @@ def hyperboloid(
     sections: int = SECTIONS,
 ) -> trimesh.Trimesh:
     """One-sheet hyperboloid of revolution with flat ends, waist at x = 0."""
-    x, r = _flat_ends(
-        hyperboloid_radius, length / 2, 33,
-        waist_radius=waist_radius, end_radius=end_radius, length=length,
-    )  # fmt: skip
-    return _revolve(x, r, sections)
+    return _revolve(*hyperboloid_profile(waist_radius, end_radius, length), sections)
 
 
 def ovoid(
     radius: float = 0.04, length: float = 0.13, asymmetry: float = 0.25, sections: int = SECTIONS
 ) -> trimesh.Trimesh:
     """Egg: ``length`` (m) along O-O', widest ``radius`` (m), blunt end toward +x."""
-    x, r = _profile(
-        ovoid_radius, length / 2, sections, radius=radius, length=length, asymmetry=asymmetry
-    )
-    return _revolve(x, r, sections)
+    return _revolve(*ovoid_profile(radius, length, asymmetry, sections), sections)
 
 
 def hexagonal_pyramid(
@@ -282,20 +341,33 @@ def _single(mesh_fn) -> Callable[..., list[np.ndarray]]:
     return pieces
 
 
-def torus_pieces(major_radius: float = 0.048, minor_radius: float = 0.042) -> list:
+def _revolved_hull(profile_fn) -> Callable[..., list[np.ndarray]]:
+    """A convex solid of revolution as one hull: its profile revolved with fewer facets, the
+    surface's points only (those ``_single`` would take from its trimesh mesh)."""
+
+    def pieces(**params) -> list[np.ndarray]:
+        x, r = profile_fn(**params, sections=COLLISION_SECTIONS)
+        return [revolved_surface(x, r, COLLISION_SECTIONS).vertices]
+
+    return pieces
+
+
+def torus_pieces(major_radius: float = 0.048, minor_radius: float = 0.042) -> list[Surface]:
     """The torus as one exact static triangle mesh: the hole stays open and the surface the
     fingers wrap has no internal faces. Convex sectors around O-O' were tried first: the
     fingers curl across the sector cuts and the cut faces' normals knocked them about."""
-    return [torus(major_radius, minor_radius, sections=COLLISION_SECTIONS)]
+    x, r = torus_profile(major_radius, minor_radius)
+    return [revolved_surface(x, r, COLLISION_SECTIONS)]
 
 
 def hyperboloid_pieces(
     waist_radius: float = 0.028, end_radius: float = 0.045, length: float = 0.12
-) -> list:
+) -> list[Surface]:
     """The hyperboloid as one exact static triangle mesh: the waist stays concave. Convex
     slabs along O-O' were tried first: a finger capsule straddling a cut felt the cut faces'
     sideways normals and slid along the waist."""
-    return [hyperboloid(waist_radius, end_radius, length, sections=COLLISION_SECTIONS)]
+    x, r = hyperboloid_profile(waist_radius, end_radius, length)
+    return [revolved_surface(x, r, COLLISION_SECTIONS)]
 
 
 # --- the table ------------------------------------------------------------------------------
@@ -307,7 +379,7 @@ BUILTIN_SHAPES: tuple[Shape, ...] = (
             "radius": Param(0.05, 0.03, 0.07, doc="base radius"),
             "length": Param(0.16, 0.12, 0.22, doc="base to apex"),
         },
-        cone_radius, cone, cached("cone", _single(cone)),
+        cone_radius, cone, cached("cone", _revolved_hull(cone_profile)),
         doc="right circular cone, base toward the little finger",
         extent=lambda length, **_: length / 2,
     ),
@@ -324,7 +396,7 @@ BUILTIN_SHAPES: tuple[Shape, ...] = (
     Shape(
         "sphere",
         {"radius": Param(0.045, 0.035, 0.07)},
-        sphere_radius, sphere, cached("sphere", _single(sphere)),
+        sphere_radius, sphere, cached("sphere", _revolved_hull(sphere_profile)),
         doc="sphere",
         extent=lambda radius, **_: radius,
     ),
@@ -345,7 +417,7 @@ BUILTIN_SHAPES: tuple[Shape, ...] = (
             "radius": Param(0.035, 0.02, 0.055),
             "length": Param(0.12, 0.1, 0.18),
         },
-        cylinder_radius, cylinder, cached("cylinder", _single(cylinder)),
+        cylinder_radius, cylinder, cached("cylinder", _revolved_hull(cylinder_profile)),
         doc="cylinder",
         extent=lambda length, **_: length / 2,
     ),
@@ -356,7 +428,7 @@ BUILTIN_SHAPES: tuple[Shape, ...] = (
             "length": Param(0.13, 0.1, 0.18),
             "asymmetry": Param(0.25, 0.0, 0.4, unit="1", doc="egg skew k"),
         },
-        ovoid_radius, ovoid, cached("ovoid", _single(ovoid)),
+        ovoid_radius, ovoid, cached("ovoid", _revolved_hull(ovoid_profile)),
         doc="egg (modified shape)", thesis=False,
         extent=lambda length, **_: length / 2,
     ),

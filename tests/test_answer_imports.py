@@ -211,6 +211,35 @@ def test_a_grasp_of_a_new_size_imports_no_trimesh(shape, param, cache_home):
     assert len(list((cache_home / "pieces").glob(f"{shape}-*.npz"))) == 1  # built, then kept
 
 
+def test_a_grasp_of_a_mesh_processed_before_imports_no_trimesh(cache_home, tmp_path):
+    """Processing a mesh file needs trimesh; grasping it again (its processed arrays read
+    from the mesh cache) does not, and answers the same."""
+    import os
+
+    from tactile_bullet.objects.examples import write_object
+
+    path = write_object("box", tmp_path)
+    code = (
+        "import atexit, runpy, sys\n"
+        "atexit.register(lambda: sys.stderr.write('\\nIMPORTED %d\\n' % (\n"
+        "    'trimesh' in sys.modules)))\n"
+        f"sys.argv = ['tactile-bullet', 'grasp', '--mesh', {str(path)!r}, '--unit', 'mm',\n"
+        "            '--json']\n"
+        "runpy.run_module('tactile_bullet.cli', run_name='__main__')\n"
+    )
+    env = {**os.environ, "TACTILE_BULLET_CACHE": str(cache_home)}
+    runs = []
+    for _ in range(2):
+        done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                              env=env, timeout=300)  # fmt: skip
+        assert done.returncode == 0, done.stderr
+        answer = json.loads(done.stdout)
+        runs.append((answer["joint_angles"], done.stderr.rsplit("IMPORTED", 1)[1].split()))
+    assert runs[0][1] == ["1"]  # processed the file with trimesh
+    assert runs[1][1] == ["0"]  # read the processed arrays back
+    assert runs[0][0] == runs[1][0]
+
+
 def test_a_shape_fit_model_saves_without_skops_and_refuses_a_damaged_state(tmp_path):
     from tactile_bullet.learn.classifiers.shape_fit import ShapeFitClassifier
     from tactile_bullet.learn.descriptors import raw_joint_names

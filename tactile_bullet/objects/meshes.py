@@ -334,15 +334,25 @@ def _profile_fn(xs: np.ndarray, values: np.ndarray):
 
 def _build_shape(source: MeshSource, info: MeshInfo, arrays: Mapping[str, np.ndarray]):
     """The Shape from the processed arrays (as cached): ``vertices``/``faces`` the analysis
-    surface, ``collision_vertices``/``collision_faces`` what Bullet gets, ``profile_*``."""
-    import trimesh
+    surface, ``collision_vertices``/``collision_faces`` what Bullet gets, ``profile_*``.
+    Nothing here imports trimesh (~0.5 s of a command-line grasp of a cached mesh): the
+    collision piece is a hull's points or a ``Surface``, and the trimesh of ``mesh()`` is
+    made when something asks for it (a picture, a report)."""
+    from .piece_cache import Surface
 
-    mesh = trimesh.Trimesh(arrays["vertices"], arrays["faces"], process=False)
+    vertices, faces = arrays["vertices"], arrays["faces"]
+
+    def mesh(**_params):
+        import trimesh
+
+        return trimesh.Trimesh(vertices, faces, process=False)
+
     if info.convex:  # a convex hull of these vertices, as the convex primitives
         piece: Any = np.asarray(arrays["collision_vertices"], float)
     else:  # the exact concave surface, a static triangle mesh
-        piece = trimesh.Trimesh(
-            arrays["collision_vertices"], arrays["collision_faces"], process=False
+        piece = Surface(
+            np.asarray(arrays["collision_vertices"], float),
+            np.asarray(arrays["collision_faces"], np.int64),
         )
     px, pr, preach = arrays["profile_x"], arrays["profile_r"], arrays["profile_reach"]
     half = float(info.size[0]) / 2
@@ -350,7 +360,7 @@ def _build_shape(source: MeshSource, info: MeshInfo, arrays: Mapping[str, np.nda
         name=source.name,
         params={},
         radius=_profile_fn(px, pr),
-        mesh=lambda **_: mesh.copy(),
+        mesh=mesh,
         pieces=lambda **_: [piece],
         doc=f"mesh {Path(source.path).name} (sha256 {source.sha256[:12]})",
         thesis=False,

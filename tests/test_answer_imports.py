@@ -155,7 +155,7 @@ def test_a_grasp_of_a_size_grasped_before_imports_neither_trimesh_nor_scikit_lea
     assert runs[1] == ("torus", ["0", "0"])  # read them back
 
 
-REVOLVED = ("cone", "sphere", "cylinder", "ovoid", "torus", "hyperboloid")
+BUILT = tuple(s.name for s in BUILTIN_SHAPES)
 
 
 def _sizes(shape, draws: int = 4) -> list[dict[str, float]]:
@@ -170,8 +170,8 @@ def _sizes(shape, draws: int = 4) -> list[dict[str, float]]:
     return out
 
 
-@pytest.mark.parametrize("name", REVOLVED)
-def test_a_revolved_piece_is_its_meshs_points_and_faces_to_the_bit(name):
+@pytest.mark.parametrize("name", BUILT)
+def test_a_built_in_piece_is_its_meshs_points_and_faces_to_the_bit(name):
     """The built-in pieces are built without trimesh; Bullet must get the very points,
     triangles and order the mesh-based build gave it, at both ends of every range and
     inside them."""

@@ -311,17 +311,22 @@ def ovoid(
     return _revolve(*ovoid_profile(radius, length, asymmetry, sections), sections)
 
 
+def hexagonal_pyramid_points(radius: float, length: float, sections: int = 6) -> np.ndarray:
+    """The pyramid's seven corners: the base hexagon (circumradius ``radius``) at -length/2,
+    then the apex. Its trimesh hull keeps them, in this order."""
+    angles = np.arange(6) * np.pi / 3 + np.pi / 6
+    base = np.column_stack(
+        [np.full(6, -length / 2), radius * np.cos(angles), radius * np.sin(angles)]
+    )
+    return np.vstack([base, np.array([[length / 2, 0.0, 0.0]])])
+
+
 def hexagonal_pyramid(
     radius: float = 0.05, length: float = 0.16, sections: int = 6
 ) -> trimesh.Trimesh:
     """Hexagonal pyramid: base circumradius ``radius`` (m) at -length/2, apex at +length/2.
     ``sections`` is accepted for a uniform signature; a hexagon has six."""
-    angles = np.arange(6) * np.pi / 3 + np.pi / 6
-    base = np.column_stack(
-        [np.full(6, -length / 2), radius * np.cos(angles), radius * np.sin(angles)]
-    )
-    apex = np.array([[length / 2, 0.0, 0.0]])
-    return _trimesh().convex.convex_hull(np.vstack([base, apex]))
+    return _trimesh().convex.convex_hull(hexagonal_pyramid_points(radius, length))
 
 
 # --- convex pieces for Bullet ---------------------------------------------------------------
@@ -332,24 +337,20 @@ COLLISION_SECTIONS = 32
 contact is linear in vertices, and 32 facets keep the radius within 0.5% (0.2 mm at 45 mm)."""
 
 
-def _single(mesh_fn) -> Callable[..., list[np.ndarray]]:
-    """A convex solid is its own single piece, rebuilt with fewer facets for collision."""
-
-    def pieces(**params) -> list[np.ndarray]:
-        return [np.asarray(mesh_fn(**params, sections=COLLISION_SECTIONS).vertices)]
-
-    return pieces
-
-
 def _revolved_hull(profile_fn) -> Callable[..., list[np.ndarray]]:
     """A convex solid of revolution as one hull: its profile revolved with fewer facets, the
-    surface's points only (those ``_single`` would take from its trimesh mesh)."""
+    surface's points only (the vertices of its trimesh mesh at those facets)."""
 
     def pieces(**params) -> list[np.ndarray]:
         x, r = profile_fn(**params, sections=COLLISION_SECTIONS)
         return [revolved_surface(x, r, COLLISION_SECTIONS).vertices]
 
     return pieces
+
+
+def hexagonal_pyramid_pieces(radius: float = 0.05, length: float = 0.16) -> list[np.ndarray]:
+    """The pyramid as one hull: its seven corners."""
+    return [hexagonal_pyramid_points(radius, length)]
 
 
 def torus_pieces(major_radius: float = 0.048, minor_radius: float = 0.042) -> list[Surface]:
@@ -439,7 +440,7 @@ BUILTIN_SHAPES: tuple[Shape, ...] = (
             "length": Param(0.16, 0.12, 0.22, doc="base to apex"),
         },
         hexagonal_pyramid_radius, hexagonal_pyramid,
-        cached("hexagonal_pyramid", _single(hexagonal_pyramid)),
+        cached("hexagonal_pyramid", hexagonal_pyramid_pieces),
         doc="hexagonal pyramid (modified shape)", thesis=False,
         extent=lambda length, **_: length / 2,
     ),

@@ -204,20 +204,17 @@ def _engines(tasks) -> frozenset[str]:
     return frozenset(names - {""})
 
 
-_PRIMITIVE = frozenset({"sphere", "cylinder", "torus", "hyperboloid"})
-"""Built-in shapes whose objects the mujoco engine builds without trimesh (bullet builds every
-object's mesh with it)."""
-
-
 def _meshes(tasks) -> bool:
-    """Whether any of ``tasks`` builds its object with trimesh."""
-    for t in tasks:
-        engine = getattr(getattr(t, "controller", None), "engine", "mujoco")
-        if engine != "mujoco" or getattr(t, "mesh", None) is not None:
-            return True
-        if getattr(t, "shape", "sphere") not in _PRIMITIVE:
-            return True
-    return False
+    """Whether any of ``tasks`` may build its object with trimesh: a mesh file (processed on
+    first use) or a plugin's shape. The built-in shapes' pieces, on either engine, are made
+    from their profiles without it."""
+    from ..objects.shapes import BUILTIN_SHAPES
+
+    builtin = {s.name for s in BUILTIN_SHAPES}
+    return any(
+        getattr(t, "mesh", None) is not None or getattr(t, "shape", "sphere") not in builtin
+        for t in tasks
+    )
 
 
 def _run_pool(tasks, workers, task_fn, engines=frozenset(), meshes=False):

@@ -63,7 +63,7 @@ from .mesh_geometry import (
     radius_profile,
     simplify,
 )
-from .shapes import Shape
+from .shapes import Shape, Surface
 
 __all__ = [  # the names users import from here, the two stages' modules' included
     "CACHE_ARRAYS", "CACHE_ENV", "COLLISION_TRIANGLES", "CONVEX_HULL_TRIANGLES", "CONVEX_RATIO",
@@ -338,8 +338,6 @@ def _build_shape(source: MeshSource, info: MeshInfo, arrays: Mapping[str, np.nda
     Nothing here imports trimesh (~0.5 s of a command-line grasp of a cached mesh): the
     collision piece is a hull's points or a ``Surface``, and the trimesh of ``mesh()`` is
     made when something asks for it (a picture, a report)."""
-    from .piece_cache import Surface
-
     vertices, faces = arrays["vertices"], arrays["faces"]
 
     def mesh(**_params):

@@ -22,18 +22,24 @@ from __future__ import annotations
 
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, NamedTuple
 
 import numpy as np
 
 from ..errors import UsageError
-from .piece_cache import Surface, cached
 
 if TYPE_CHECKING:
     import trimesh
 
 SECTIONS = 48
 """Facets around the axis: a 0.2% radius error, below Bullet's collision margin here."""
+
+
+class Surface(NamedTuple):
+    """An exact (concave) triangle surface: what a shape hands Bullet as a static mesh."""
+
+    vertices: np.ndarray
+    faces: np.ndarray
 
 
 @dataclass(frozen=True)
@@ -380,7 +386,7 @@ BUILTIN_SHAPES: tuple[Shape, ...] = (
             "radius": Param(0.05, 0.03, 0.07, doc="base radius"),
             "length": Param(0.16, 0.12, 0.22, doc="base to apex"),
         },
-        cone_radius, cone, cached("cone", _revolved_hull(cone_profile)),
+        cone_radius, cone, _revolved_hull(cone_profile),
         doc="right circular cone, base toward the little finger",
         extent=lambda length, **_: length / 2,
     ),
@@ -390,14 +396,14 @@ BUILTIN_SHAPES: tuple[Shape, ...] = (
             "major_radius": Param(0.048, 0.044, 0.07, doc="axis to tube centre"),
             "minor_radius": Param(0.042, 0.038, 0.055, doc="tube radius"),
         },
-        torus_radius, torus, cached("torus", torus_pieces),
+        torus_radius, torus, torus_pieces,
         doc="torus around O-O', hole kept open in collision",
         extent=lambda minor_radius, **_: minor_radius,
     ),
     Shape(
         "sphere",
         {"radius": Param(0.045, 0.035, 0.07)},
-        sphere_radius, sphere, cached("sphere", _revolved_hull(sphere_profile)),
+        sphere_radius, sphere, _revolved_hull(sphere_profile),
         doc="sphere",
         extent=lambda radius, **_: radius,
     ),
@@ -408,7 +414,7 @@ BUILTIN_SHAPES: tuple[Shape, ...] = (
             "end_radius": Param(0.045, 0.035, 0.06, doc="radius at the flat ends"),
             "length": Param(0.12, 0.1, 0.16),
         },
-        hyperboloid_radius, hyperboloid, cached("hyperboloid", hyperboloid_pieces),
+        hyperboloid_radius, hyperboloid, hyperboloid_pieces,
         doc="one-sheet hyperboloid of revolution, waist kept concave in collision",
         extent=lambda length, **_: length / 2,
     ),
@@ -418,7 +424,7 @@ BUILTIN_SHAPES: tuple[Shape, ...] = (
             "radius": Param(0.035, 0.02, 0.055),
             "length": Param(0.12, 0.1, 0.18),
         },
-        cylinder_radius, cylinder, cached("cylinder", _revolved_hull(cylinder_profile)),
+        cylinder_radius, cylinder, _revolved_hull(cylinder_profile),
         doc="cylinder",
         extent=lambda length, **_: length / 2,
     ),
@@ -429,7 +435,7 @@ BUILTIN_SHAPES: tuple[Shape, ...] = (
             "length": Param(0.13, 0.1, 0.18),
             "asymmetry": Param(0.25, 0.0, 0.4, unit="1", doc="egg skew k"),
         },
-        ovoid_radius, ovoid, cached("ovoid", _revolved_hull(ovoid_profile)),
+        ovoid_radius, ovoid, _revolved_hull(ovoid_profile),
         doc="egg (modified shape)", thesis=False,
         extent=lambda length, **_: length / 2,
     ),
@@ -440,7 +446,7 @@ BUILTIN_SHAPES: tuple[Shape, ...] = (
             "length": Param(0.16, 0.12, 0.22, doc="base to apex"),
         },
         hexagonal_pyramid_radius, hexagonal_pyramid,
-        cached("hexagonal_pyramid", hexagonal_pyramid_pieces),
+        hexagonal_pyramid_pieces,
         doc="hexagonal pyramid (modified shape)", thesis=False,
         extent=lambda length, **_: length / 2,
     ),

@@ -11,7 +11,13 @@ from synthetic import make_records
 
 from tactile_bullet.errors import UsageError
 from tactile_bullet.experiments import protocols as P
-from tactile_bullet.learn.perturb import SensorModel, perturb, perturb_all, turned_normals
+from tactile_bullet.learn.perturb import (
+    SensorModel,
+    link_pose,
+    moved_contacts,
+    perturb,
+    perturb_all,
+)
 from tactile_bullet.learn.robust import augment, zeroed
 from tactile_bullet.plugins import get_descriptor
 from tactile_bullet.records import ControllerSettings, record_from_parts
@@ -69,17 +75,52 @@ def test_sensor_model_refuses_bad_values(bad):
         SensorModel(**bad)
 
 
-def test_contact_normals_turn_with_the_flexion_errors(records):
+def test_contacts_move_with_their_link_through_the_flexion_errors(records):
+    """A real hand places a tactile contact through the kinematics of its measured angles:
+    the point and the normal move together, as the link does, about the erring joints."""
+    final = np.array(records[0].final_angles, dtype=float)
+    final[records[0].joint_index("FFJ4")] = 0.0
+    knuckle = np.array([0.033, 0.0, 0.095])  # docs/hand.md
     rec = replace(
         records[0],
-        contact_link=np.array(["ffdistal", "thdistal"]),
-        contact_normal=np.array([[0.0, 1.0, 0.0], [0.0, 1.0, 0.0]]),
+        final_angles=final,
+        contact_link=np.array(["ffdistal", "thdistal", "ffproximal"]),
+        contact_position=np.array([knuckle + [0.0, -0.03, 0.08], [0.0, -0.05, 0.1], knuckle]),
+        contact_normal=np.array([[0.0, 1.0, 0.0], [0.0, 1.0, 0.0], [0.0, 1.0, 0.0]]),
     )
     errors = np.zeros(len(rec.joint_names))
     errors[rec.joint_index("FFJ3")], errors[rec.joint_index("FFJ2")] = 0.1, 0.05
-    turned = turned_normals(rec, errors)
-    assert np.allclose(turned[0], [0.0, math.cos(0.15), math.sin(0.15)])
-    assert np.allclose(turned[1], [0.0, 1.0, 0.0])  # the thumb's are left as simulated
+    points, normals = moved_contacts(rec, errors)
+    assert np.allclose(normals[0], [0.0, math.cos(0.15), math.sin(0.15)])
+    # the distal contact turned about the knuckle (J3) and about J2, which itself moved: it
+    # keeps its distance from J2, wherever J2 is read to be
+    true = dict(zip(rec.joint_names, rec.final_angles, strict=True))
+    read = dict(zip(rec.joint_names, rec.final_angles + errors, strict=True))
+    j2_true, j2_read = link_pose("ff", true, 2)[1], link_pose("ff", read, 2)[1]
+    assert np.linalg.norm(points[0] - j2_read) == pytest.approx(
+        np.linalg.norm(rec.contact_position[0] - j2_true)
+    )
+    assert points[0][0] == pytest.approx(rec.contact_position[0][0])  # flexion keeps x
+    assert np.linalg.norm(points[0] - rec.contact_position[0]) > 0.005  # millimetres, not microns
+    assert np.allclose(points[1], rec.contact_position[1])  # the thumb's: left as simulated
+    assert np.allclose(normals[1], [0.0, 1.0, 0.0])
+    assert np.allclose(points[2], knuckle)  # on the J3 axis: it does not move
+    only_j3 = np.zeros(len(rec.joint_names))
+    only_j3[rec.joint_index("FFJ3")] = 0.1
+    points, _ = moved_contacts(rec, only_j3)
+    before, after = rec.contact_position[0] - knuckle, points[0] - knuckle
+    assert np.linalg.norm(after) == pytest.approx(np.linalg.norm(before))
+    turn = math.atan2(after[2], -after[1]) - math.atan2(before[2], -before[1])
+    assert turn == pytest.approx(-0.1)  # flexion turns toward -y
+
+
+def test_perturbed_contacts_are_the_moved_ones(records):
+    rec = records[0]
+    out = perturb(rec, SensorModel.degrees(bias=3.0), seed=5)
+    points, normals = moved_contacts(rec, out.final_angles - rec.final_angles)
+    assert np.array_equal(out.contact_position, points)
+    assert np.array_equal(out.contact_normal, normals)
+    assert not np.allclose(out.contact_position, rec.contact_position)
 
 
 # --- robust descriptors -------------------------------------------------------------------
@@ -150,7 +191,8 @@ def test_cross_engine_sets_are_the_same_grasps_on_each_engine():
         assert {t.controller.engine for t in mujoco} == {"mujoco"}
     cross = P.protocols("tiny")["cross-engine"]
     assert [(lv.name, lv.train) for lv in cross.levels] == [
-        ("bullet->mujoco", None), ("mujoco->bullet", "tiny-mujoco-demo-train")
+        ("bullet->mujoco", None),
+        ("mujoco->bullet", "tiny-mujoco-demo-train"),
     ]
     assert P.protocols("tiny")["mixed-engine"].train == "tiny-demo-train+tiny-mujoco-demo-train"
 

@@ -248,6 +248,26 @@ def test_strict_parser_accepts_file():
         assert np.linalg.norm(got - expected) < 1e-3, (tip, got)
 
 
+@pytest.mark.parametrize("finger", ["ff", "mf", "rf", "lf"])
+def test_the_sensor_models_planar_chain_is_the_urdfs_kinematics(finger):
+    """learn/perturb.py moves a contact with its link through a planar chain (knuckle, phalanx
+    ends); an independent forward kinematics of the URDF must place each phalanx the same."""
+    from tactile_bullet.learn.perturb import link_pose
+
+    model = strict_parse(URDF.read_text())
+    rng = np.random.default_rng(3)
+    up = finger.upper()
+    for _ in range(5):
+        angles = {f"{up}J4": rng.uniform(-0.3, 0.3), f"{up}J3": rng.uniform(0.0, 1.5),
+                  f"{up}J2": rng.uniform(0.0, 1.5), f"{up}J1": rng.uniform(0.0, 1.5)}  # fmt: skip
+        model.update_cfg({k: v for k, v in angles.items() if k in model.actuated_joint_names})
+        for depth, link in ((1, "proximal"), (2, "middle"), (3, "distal")):
+            rot, origin = link_pose(finger, angles, depth)
+            frame = model.get_transform(f"{finger}{link}", "palm")
+            assert np.allclose(frame[:3, 3], origin, atol=1e-9), (link, angles)
+            assert np.allclose(frame[:3, :3], rot, atol=1e-9), (link, angles)
+
+
 @pytest.mark.parametrize(
     "old, new",
     [

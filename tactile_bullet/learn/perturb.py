@@ -13,12 +13,15 @@ degrees (the calibration bias) plus sample-to-sample jitter, and its torque read
 The final angles are the last sample's angles: the record's ``final_angles`` get the same bias
 and their own draw of noise (the final state is one more reading of the encoders), so
 descriptors that read the final configuration and those that read the series see one hand.
-Contact normals are reported in the palm frame, which a real hand computes from the fingertip
-sensor through the forward kinematics of the *measured* angles: each long finger's contact
-normals are turned by that finger's final-angle errors (about the flexion axis, palm x, by the
-sum of the errors of the flexion joints between the palm and the touching link; about the palm
-normal by the J4 error). Thumb contacts and contact positions are left as simulated (the
-thumb's joint axes are not parallel; no built-in descriptor reads positions).
+Contacts are reported in the palm frame, which a real hand computes from the tactile sensor
+on the link through the forward kinematics of the *measured* angles: each contact of a long
+finger's proximal, middle or distal link keeps its place and normal on the link, and the link
+is placed by the measured final angles instead of the true ones (the finger's planar chain of
+docs/hand.md: J4 about the palm normal at the knuckle, J3, J2, J1 about palm x at the knuckle
+and the phalanx ends; LF J5 taken as 0, as :mod:`.finger_points` does). A 3 deg bias at J3
+moves a fingertip contact ~5 mm. Thumb contacts (its joint axes are not parallel) and knuckle
+contacts are left as simulated. (Until the contact rules read the points, only the normals
+were turned and the points stayed where they were simulated: an inconsistent hand.)
 Joints the simulator holds fixed (the welded wrist, reported at 0) are perturbed like the
 others: a real hand reports them through the same sensors.
 
@@ -29,7 +32,6 @@ recordings imported from a real hand (to ask how a model trained on them degrade
 
 from __future__ import annotations
 
-import functools
 import math
 from dataclasses import dataclass, replace
 
@@ -103,50 +105,78 @@ def perturb(
         else efforts
     )
     new_final = final + offset + noise_final
+    points, normals = moved_contacts(record, new_final - final)
     return replace(
         record,
         angles=angles + offset + noise_series if angles.size else angles,
         final_angles=new_final,
         efforts=noisy_efforts,
-        contact_normal=turned_normals(record, new_final - final),
+        contact_position=points,
+        contact_normal=normals,
         flags=tuple(record.flags) + ("perturbed",),
     )
 
 
-@functools.cache
-def _link_joints() -> dict[str, tuple[tuple[str, ...], str]]:
-    """Long-finger link -> (flexion joints between the palm and it, abduction joint)."""
-    from ..hand import FINGER_LINKS, LONG_FINGERS
+_DEPTH = {"proximal": 1, "middle": 2, "distal": 3, "tip": 3}
+"""Phalanges between the knuckle and a long finger's link (its tip frame rides the distal)."""
 
-    out = {}
-    for f in LONG_FINGERS:
-        up = f.upper()
-        chain = {"proximal": (3,), "middle": (3, 2), "distal": (3, 2, 1), "tip": (3, 2, 1)}
-        for link in FINGER_LINKS[f]:
-            for part, joints in chain.items():
-                if link == f"{f}{part}":
-                    out[link] = (tuple(f"{up}J{j}" for j in joints), f"{up}J4")
-    return out
+_J4_AXIS_Y = {"ff": -1.0, "mf": -1.0, "rf": 1.0, "lf": 1.0}
+"""The y of each long finger's J4 axis (docs/hand.md): FF and MF spread about -y, RF and LF
+about +y."""
 
 
-def turned_normals(record: GraspRecord, errors: np.ndarray) -> np.ndarray:
-    """Contact normals as forward kinematics with final-angle ``errors`` (rad, per joint in
-    ``record.joint_names`` order) would report them (module doc)."""
+def _rx(a: float) -> np.ndarray:
+    c, s = math.cos(a), math.sin(a)
+    return np.array([[1.0, 0.0, 0.0], [0.0, c, -s], [0.0, s, c]])
+
+
+def _ry(b: float) -> np.ndarray:
+    c, s = math.cos(b), math.sin(b)
+    return np.array([[c, 0.0, s], [0.0, 1.0, 0.0], [-s, 0.0, c]])
+
+
+def link_pose(finger: str, angles: dict[str, float], depth: int) -> tuple[np.ndarray, np.ndarray]:
+    """(rotation, origin) in the palm frame of the ``depth``-th phalanx of long ``finger`` at
+    joint ``angles`` (name -> rad): J4 turns the finger about its axis (+-y) at the knuckle,
+    J3, J2 and J1 flex it about +x (toward -y) at the knuckle and the phalanx ends."""
+    from ..hand import FINGER_X, KNUCKLE_Z
+    from .finger_points import PHALANX_ENDS
+
+    up = finger.upper()
+    rot = _ry(_J4_AXIS_Y[finger] * angles.get(f"{up}J4", 0.0)) @ _rx(angles.get(f"{up}J3", 0.0))
+    origin = np.array([FINGER_X[finger], 0.0, KNUCKLE_Z[finger]])
+    for k, joint in zip(range(1, depth), ("J2", "J1"), strict=False):
+        origin = origin + rot @ np.array([0.0, 0.0, PHALANX_ENDS[k - 1]])
+        rot = rot @ _rx(angles.get(f"{up}{joint}", 0.0))
+    return rot, origin
+
+
+def moved_contacts(record: GraspRecord, errors: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Contact positions and normals as forward kinematics with final-angle ``errors`` (rad,
+    per joint in ``record.joint_names`` order) would report them (module doc)."""
+    from ..hand import LONG_FINGERS
+
+    points = np.array(record.contact_position, dtype=float).reshape(-1, 3)
     normals = np.array(record.contact_normal, dtype=float).reshape(-1, 3)
-    if not len(normals):
-        return normals
-    table = _link_joints()
-    index = {n: i for i, n in enumerate(record.joint_names)}
+    if not len(points):
+        return points, normals
+    names = list(record.joint_names)
+    true = dict(zip(names, np.asarray(record.final_angles, dtype=float).tolist(), strict=True))
+    read = dict(zip(names, (np.asarray(record.final_angles, dtype=float)
+                            + np.asarray(errors, dtype=float)).tolist(), strict=True))  # fmt: skip
+    poses: dict[tuple[str, int], tuple] = {}
     for row, link in enumerate(np.asarray(record.contact_link).astype(str)):
-        if link not in table:
+        finger = link[:2]
+        depth = _DEPTH.get(link[2:])
+        if finger not in LONG_FINGERS or depth is None:
             continue
-        flexion, abduction = table[link]
-        a = float(sum(errors[index[j]] for j in flexion if j in index))
-        b = -float(errors[index[abduction]]) if abduction in index else 0.0
-        rot_x = np.array([[1, 0, 0], [0, np.cos(a), -np.sin(a)], [0, np.sin(a), np.cos(a)]])
-        rot_y = np.array([[np.cos(b), 0, np.sin(b)], [0, 1, 0], [-np.sin(b), 0, np.cos(b)]])
-        normals[row] = rot_y @ rot_x @ normals[row]
-    return normals
+        if (finger, depth) not in poses:
+            (r0, t0), (r1, t1) = (link_pose(finger, a, depth) for a in (true, read))
+            poses[finger, depth] = (r1 @ r0.T, t1 - r1 @ r0.T @ t0)
+        turn, shift = poses[finger, depth]
+        points[row] = turn @ points[row] + shift
+        normals[row] = turn @ normals[row]
+    return points, normals
 
 
 def perturb_all(records, model: SensorModel, seed: int = 0) -> list[GraspRecord]:

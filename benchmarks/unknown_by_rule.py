@@ -10,6 +10,10 @@ docs/robustness.md's replicate tables break down by rule comes from here.
     python benchmarks/unknown_by_rule.py --cache OUT/data --replicate 5 \\
         --columns mujoco,household,noise
     python benchmarks/unknown_by_rule.py --data DIR   # any labelled dataset, as simulated
+
+``--sensor`` also reads each out-of-family set through the ``noise`` column's sensor model (1
+deg joint noise, 3 deg calibration bias; contacts moved with their links): what a hand whose
+contacts come through its joint sensors would get (docs/robustness.md, the sixth replicate).
 """
 
 from __future__ import annotations
@@ -22,7 +26,12 @@ import numpy as np
 from _report import provenance  # first: this checkout ahead of an installed copy
 
 from tactile_bullet.datasets.dataset import read_records
-from tactile_bullet.experiments.robustness_sets import COLUMNS, OUT_OF_FAMILY_SETS, read_column
+from tactile_bullet.experiments.robustness_sets import (
+    COLUMNS,
+    NOISE,
+    OUT_OF_FAMILY_SETS,
+    read_column,
+)
 from tactile_bullet.learn.default import resolve_model
 from tactile_bullet.learn.doubt import NOT_PROFILE, NOT_REVOLUTION, UNLIKE_TRAINING, doubts
 
@@ -50,6 +59,8 @@ def main(argv=None) -> int:
     ap.add_argument("--columns", default="mujoco,household,noise", help="in-family columns")
     ap.add_argument("--model", default=None, help="a model file (default: the shipped one)")
     ap.add_argument("--seed", type=int, default=0, help="the run's --seed")
+    ap.add_argument("--sensor", action="store_true",
+                    help="also read the out-of-family sets through the noise column's sensors")
     args = ap.parse_args(argv)
     provenance(argv)
     model = resolve_model(args.model)
@@ -60,16 +71,22 @@ def main(argv=None) -> int:
         ap.error("give --cache (a robustness matrix's data) or --data")
     tag = f"-r{args.replicate}" if args.replicate else ""
     cache = Path(args.cache)
+    from tactile_bullet.learn.perturb import perturb_all
+
     for name in OUT_OF_FAMILY_SETS:
-        records = read_records(cache / f"robust-{name}{tag}").records
-        _, rules = _answers(model, records)
-        per: dict[str, list] = defaultdict(list)
-        for r, rule in zip(records, rules, strict=True):
-            per[(r.mesh or {}).get("name") or r.shape].append(rule)
-        print(f"{name}: {_shares(rules)}")
-        order = sorted(per, key=lambda k: -np.mean([x is not None for x in per[k]]))
-        print("  " + ", ".join(f"{k} {sum(x is not None for x in per[k])}/{len(per[k])}"
-                               for k in order))  # fmt: skip
+        simulated = read_records(cache / f"robust-{name}{tag}").records
+        readings = [("", simulated)]
+        if args.sensor:
+            readings.append((" through the sensor model", perturb_all(simulated, NOISE, args.seed)))
+        for how, records in readings:
+            _, rules = _answers(model, records)
+            per: dict[str, list] = defaultdict(list)
+            for r, rule in zip(records, rules, strict=True):
+                per[(r.mesh or {}).get("name") or r.shape].append(rule)
+            print(f"{name}{how}: {_shares(rules)}")
+            order = sorted(per, key=lambda k: -np.mean([x is not None for x in per[k]]))
+            print("  " + ", ".join(f"{k} {sum(x is not None for x in per[k])}/{len(per[k])}"
+                                   for k in order))  # fmt: skip
     table = {c.name: c for c in COLUMNS}
     for name in args.columns.split(","):
         column = table[name]

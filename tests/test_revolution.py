@@ -136,6 +136,24 @@ def test_copies_of_one_grasp_count_once():
     assert ContactCheck.fit(records, labels, groups).grasps == len(records) // 2
 
 
+def test_contacts_read_through_a_sensor_model_get_no_verdict_and_calibrate_nothing():
+    """A calibration bias moves contacts millimetres (learn/perturb.py): the thresholds, set
+    on exact contacts, say nothing of them, as they say nothing of a recording's grasps."""
+    rng = np.random.default_rng(6)
+    records, labels = _training(rng)
+    check = ContactCheck.fit(records, labels)
+    box = _box()
+    sensed = SimpleNamespace(**vars(box), flags=("perturbed",))
+    assert check.unknown([box, sensed], ["cylinder", "cylinder"]).tolist() == [True, False]
+    verdict = check.verdicts([sensed], ["cylinder"])[0]
+    assert verdict == Verdict()  # no residual, no reason
+    given = check.verdicts([box, sensed], ["cylinder"] * 2, residuals=[0.01, 0.01])
+    assert [v.unknown_why for v in given] == ["axis", None]  # cached residuals too
+    copies = [SimpleNamespace(**vars(r), flags=("perturbed",)) for r in records]
+    assert ContactCheck.fit(copies, labels) is None  # nothing exact to set a threshold on
+    assert ContactCheck.fit(records + copies, labels + labels).grasps == len(records)
+
+
 def test_contacts_answer_unknown_with_their_reason_and_novelty_comes_first():
     classes = ["cylinder", "sphere"]
     off = Verdict(axis_residual=0.0062, unknown_why="axis")

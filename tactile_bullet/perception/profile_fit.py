@@ -42,8 +42,10 @@ KNEE = 0.001
 ITERATIONS = 20
 TILT = 0.7
 """Largest tilt (slope) of the axis from the palm's x axis: 35 deg."""
-MIN_POINTS = 10
-"""Contact points a fit needs (it has up to 8 unknowns)."""
+MIN_POINTS = 7
+"""Contact points a fit needs: it has up to 8 unknowns, but starts from the axis the axis rule
+fitted; 7 separate a hexagonal prism from a cylinder, 5 let a cylinder fit diverge
+(docs/robustness.md, the seventh replicate's declaration)."""
 SIZE_STARTS = (-1.0, 0.0, 1.0)
 """Starting sizes, as the logistic map's argument (-1, 0, 1: a quarter, half, three quarters
 of the way through each widened range)."""

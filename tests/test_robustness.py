@@ -62,6 +62,33 @@ def test_ties_within_one_grasp_go_to_the_higher_mean():
     assert R.winner([a, c]) is a  # 0.90 vs 0.91 within one grasp of the smaller column (10)
 
 
+def _full(method, accs, n=100, **kw):
+    row = _row(method, "t", accs, n=n, **kw)
+    return {**row, "descriptor": method, "params": {}, "classifier": "svm"}
+
+
+def test_pooled_replicates_choose_on_all_their_grasps():
+    """Each run alone names another winner by its mean; pooled, the method that is never
+    weak on any column wins (docs/robustness.md, the pooled rule)."""
+    run1 = [_full("steady", {"x": 0.92, "y": 0.92}), _full("swing", {"x": 0.93, "y": 0.99})]
+    run2 = [_full("steady", {"x": 0.92, "y": 0.92}), _full("swing", {"x": 0.80, "y": 0.99})]
+    assert R.winner(run1)["method"] == "swing"
+    rows = R.pooled([run1, run2])
+    swing = next(r for r in rows if r["method"] == "swing")
+    assert swing["columns"]["x"] == {"n": 200, "accuracy": pytest.approx(0.865)}
+    assert R.winner(rows)["method"] == "steady"
+
+
+def test_pooling_keeps_n_a_seen_columns_and_only_methods_every_run_scored():
+    run1 = [_full("a", {"x": 0.9, "gymnasium": None}), _full("b", {"x": 0.8}),
+            _full("c", {"x": 0.7, "menagerie": 0.2}, seen=("menagerie",))]
+    run2 = [_full("a", {"x": 0.9, "gymnasium": 0.5}), _full("c", {"x": 0.7, "menagerie": 0.3})]
+    rows = {r["method"]: r for r in R.pooled([run1, run2])}
+    assert set(rows) == {"a", "c"}  # b was not scored in the second run
+    assert rows["a"]["columns"]["gymnasium"]["accuracy"] is None and not rows["a"]["eligible"]
+    assert rows["c"]["seen"] == ["menagerie"] and rows["c"]["score"] == pytest.approx(0.7)
+
+
 def test_a_recording_replay_keeps_every_grasp_and_its_label_and_drops_contacts(
     synthetic_split,
 ):

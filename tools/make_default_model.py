@@ -10,7 +10,13 @@ command and the model's sha256, which the package checks before using it), and
 training's noisy copies (``adapt``'s ``default-shifted`` way refits on them for every fold;
 a knn keeps them itself, an svm does not).
 
-Usage: python tools/make_default_model.py --matrix OUT [--cache OUT/data] [--no-write]
+With ``--pool OUT4,OUT5,...`` (other replicate runs' --out folders) the default is chosen
+by the same rule on the runs' columns pooled with this one's (``robustness.pooled``: every
+column's grasps of all the runs), as docs/robustness.md's pooled rule declares; it is still
+trained on ``--matrix``'s training sets, which every replicate shares.
+
+Usage: python tools/make_default_model.py --matrix OUT [--pool OUT,...] [--cache OUT/data]
+       [--no-write]
 """
 
 from __future__ import annotations
@@ -39,10 +45,20 @@ def main() -> None:
     ap.add_argument("--matrix", required=True, help="the matrix's --out folder")
     ap.add_argument("--cache", help="its grasp cache (default MATRIX/data)")
     ap.add_argument("--no-write", action="store_true", help="train and report, write nothing")
+    ap.add_argument("--pool", default="", help="other replicate runs' folders to pool with it")
     args = ap.parse_args()
     matrix = Path(args.matrix)
     doc = json.loads((matrix / "robustness.json").read_text())
     best = doc["default"]
+    runs = [doc] + [json.loads((Path(p) / "robustness.json").read_text())
+                    for p in args.pool.split(",") if p]  # fmt: skip
+    replicates = sorted(int(d["config"].get("replicate", 0)) for d in runs)
+    if len(runs) > 1:
+        if len(set(replicates)) != len(runs) or {d["config"]["scale"] for d in runs} != {"full"}:
+            sys.exit("pool distinct full-scale replicate runs")
+        pooled = R.pooled([d["rows"] for d in runs])
+        best = R.winner(pooled)
+        doc = {**doc, "rows": pooled}
     if best is None:
         sys.exit("the matrix names no default (no eligible method)")
     scale = doc["config"]["scale"]
@@ -81,6 +97,7 @@ def main() -> None:
                   + (f" --replicate {replicate}" if replicate else "") + " --out OUT",
         "training_sha256": hashlib.sha256(training.read_bytes()).hexdigest(),
         "replicate": replicate,
+        **({"pooled_replicates": replicates} if len(runs) > 1 else {}),
         "generated_by": "tools/make_default_model.py", "commit": commit,
         "sha256": hashlib.sha256(path.read_bytes()).hexdigest(),
     }  # fmt: skip

@@ -326,6 +326,46 @@ def winner(rows: Sequence[Mapping[str, Any]]) -> Mapping[str, Any] | None:
     return max(close, key=lambda r: (r["mean"] or 0.0))
 
 
+def pooled(runs: Sequence[Sequence[Mapping[str, Any]]]) -> list[dict[str, Any]]:
+    """The rows of several replicate runs of the matrix as one: each method and training's
+    accuracy and unknown share per column pooled over the runs (weighted by their grasps: the
+    share of all their grasps), then scored by the same rule. A method that is n/a on a column
+    in any run is n/a there; a column seen in any run stays uncounted. Only the methods every
+    run scored are kept (docs/robustness.md, the pooled rule)."""
+    def key(row):
+        return (row["descriptor"], json.dumps(row["params"], sort_keys=True), row["classifier"],
+                row["training"])  # fmt: skip
+
+    tables = [{key(r): r for r in rows} for rows in runs]
+    out = []
+    for k in [key(r) for r in runs[0] if all(key(r) in t for t in tables[1:])]:
+        rows = [t[k] for t in tables]
+        first = rows[0]
+        row: dict[str, Any] = {name: first[name] for name in
+                               ("method", "descriptor", "params", "classifier", "training",
+                                "plugin")}  # fmt: skip
+        row["seen"] = sorted(set().union(*(r["seen"] for r in rows)))
+        row["columns"] = {}
+        for name in first["columns"]:
+            cells = [r["columns"].get(name) for r in rows]
+            if any(c is None or c.get("n") is None for c in cells):
+                reason = next((c.get("reason") for c in cells if c and c.get("reason")), None)
+                row["columns"][name] = {"accuracy": None, "reason": reason or "not in every run"}
+                continue
+            n = sum(c["n"] for c in cells)
+            cell: dict[str, Any] = {"n": n}
+            if all(c.get("unknown") is not None for c in cells):
+                cell["unknown"] = sum(c["n"] * c["unknown"] for c in cells) / n
+            if all(c.get("accuracy") is not None for c in cells):
+                cell["accuracy"] = sum(c["n"] * c["accuracy"] for c in cells) / n
+            elif any("accuracy" in c for c in cells):
+                cell["accuracy"] = None
+            row["columns"][name] = cell
+        _summarise(row)
+        out.append(row)
+    return out
+
+
 def _pct(value: float | None) -> str:
     return "n/a" if value is None else f"{100 * value:.1f}"
 

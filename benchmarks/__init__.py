@@ -32,6 +32,8 @@ FAST: dict[str, tuple[str, ...]] = {
 arguments ``python -m benchmarks`` runs them with."""
 
 NEEDS: dict[str, str] = {
+    "pooled_matrix": "two or more full-scale robustness matrix runs' --out folders (each "
+    "`benchmark --protocol robustness --scale full --replicate K`)",
     "unknown_by_rule": "a robustness matrix's cache (--cache DIR/data, --replicate K) or a "
     "labelled dataset (--data DIR); seconds",
     "axis_residual_figure": "a robustness matrix's cache (--cache DIR/data) with its training "

@@ -9,7 +9,7 @@ The candidate ways (measured on hands written by others in docs/robustness.md an
   fitted on the known grasps alone.
 - ``default-shifted``: the default's own training grasps moved by the hand's mean feature
   offset, with the known grasps added five times over, an SVM on the default's descriptor
-  (``finger-points`` since the seventh replicate). The offset is the mean over shapes of
+  (``coupled-finger-points``). The offset is the mean over shapes of
   (mean of the known grasps of a shape - mean of the default's training grasps of that
   shape). The default's training
   records are not shipped, only their features and labels beside its model file

@@ -33,7 +33,7 @@ from collections.abc import Sequence
 import numpy as np
 
 from .revolution import MIN_LINKS, axis_fits, link_contacts, padded
-from .robust_lm import soft_l1_cost, soft_l1_step
+from .robust_lm import minimise
 
 SLACK = 0.15
 """How far (a fraction of each range) a fitted size may leave the family's range."""
@@ -133,31 +133,23 @@ def _fit(points: np.ndarray, mask: np.ndarray, axes: np.ndarray, family: str) ->
 
 
 def _levenberg_marquardt(v, points, mask, family, sign) -> np.ndarray:
-    pts, wm = points[:, None], mask[:, None].astype(float)
-    count = np.maximum(mask.sum(axis=1), 1)
-
-    def residual(params):
-        return _distances(params, pts, family, sign) * wm
-
-    e = residual(v)
-    now = soft_l1_cost(e, wm, KNEE)
-    damping = np.full(v.shape[:-1], 1e-3)
+    """RMS distance of each grasp's points from the surface its best start reaches, the
+    Jacobian by forward differences."""
+    pts = points[:, None]
+    wm = mask[:, None].astype(float)
     eye = np.eye(v.shape[-1])
     step = 1e-7
-    for _ in range(ITERATIONS):
-        jac = np.stack([(residual(v + step * eye[j]) - e) / step for j in range(v.shape[-1])],
-                       axis=-1)  # fmt: skip
-        trial = v + soft_l1_step(jac, e, wm, KNEE, damping)
-        e_try = residual(trial)
-        c_try = soft_l1_cost(e_try, wm, KNEE)
-        better = np.isfinite(c_try) & (c_try < now)
-        v = np.where(better[..., None], trial, v)
-        e = np.where(better[..., None], e_try, e)
-        now = np.where(better, c_try, now)
-        damping = np.where(better, damping * 0.3, damping * 10.0)
-    pick = np.argmin(now, axis=1)
-    e_best = np.take_along_axis(e, pick[:, None, None], axis=1)[:, 0]
-    return np.sqrt((e_best**2).sum(axis=1) / count)
+
+    def terms(params, jacobian):
+        e = _distances(params, pts, family, sign) * wm
+        if not jacobian:
+            return e, None
+        jac = np.stack([(_distances(params + step * eye[j], pts, family, sign) * wm - e) / step
+                        for j in range(v.shape[-1])], axis=-1)  # fmt: skip
+        return e, jac
+
+    e_best, _ = minimise(v, terms, wm, KNEE, ITERATIONS)
+    return np.sqrt((e_best**2).sum(axis=1) / np.maximum(mask.sum(axis=1), 1))
 
 
 def _sphere(points: np.ndarray, mask: np.ndarray) -> np.ndarray:

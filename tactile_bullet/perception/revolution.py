@@ -19,7 +19,7 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from .robust_lm import soft_l1_cost, soft_l1_step
+from .robust_lm import minimise
 
 MIN_LINKS = 5
 """Touching links a residual needs: the axis has 4 unknowns."""
@@ -89,26 +89,10 @@ def fit_axes(points: np.ndarray, normals: np.ndarray, mask: np.ndarray,
     theta[..., 2] = (mean[:, 1] - 0.03)[:, None]
     theta[..., 3] = mean[:, 2][:, None]
     pts, nrm = points[:, None], normals[:, None]
-    wm = w_mask[:, None]
-    damping = np.full(theta.shape[:-1], 1e-3)
-    e, jac = _terms(theta, pts, nrm)
-    now = soft_l1_cost(e, wm, LOSS_KNEE)
-    for _ in range(ITERATIONS):
-        trial = theta + soft_l1_step(jac, e, wm, LOSS_KNEE, damping)
-        e_try, jac_try = _terms(trial, pts, nrm)
-        cost = soft_l1_cost(e_try, wm, LOSS_KNEE)
-        better = cost < now
-        theta = np.where(better[..., None], trial, theta)
-        e = np.where(better[..., None], e_try, e)
-        jac = np.where(better[..., None, None], jac_try, jac)
-        now = np.where(better, cost, now)
-        damping = np.where(better, damping * 0.3, damping * 10.0)
-    best = np.argmin(now, axis=1)
-    e_best = np.take_along_axis(e, best[:, None, None], axis=1)[:, 0]
+    e_best, axes = minimise(theta, lambda t, _jac: _terms(t, pts, nrm), w_mask[:, None],
+                            LOSS_KNEE, ITERATIONS)  # fmt: skip
     rms = np.sqrt((w_mask * e_best**2).sum(axis=1) / n_links)
-    if return_axes:  # (ty, tz, cy, cz) of each grasp's best axis
-        return rms, np.take_along_axis(theta, best[:, None, None], axis=1)[:, 0]
-    return rms
+    return (rms, axes) if return_axes else rms  # axes: (ty, tz, cy, cz) of each best
 
 
 def padded(arrays: Sequence[np.ndarray]) -> tuple[np.ndarray, np.ndarray]:

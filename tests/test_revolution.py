@@ -147,7 +147,8 @@ def test_contacts_read_through_a_sensor_model_get_no_verdict_and_calibrate_nothi
     assert check.unknown([box, sensed], ["cylinder", "cylinder"]).tolist() == [True, False]
     verdict = check.verdicts([sensed], ["cylinder"])[0]
     assert verdict == Verdict()  # no residual, no reason
-    given = check.verdicts([box, sensed], ["cylinder"] * 2, residuals=[0.01, 0.01])
+    given = check.verdicts([box, sensed], ["cylinder"] * 2,
+                           residuals=lambda recs: [0.01] * len(recs))
     assert [v.unknown_why for v in given] == ["axis", None]  # cached residuals too
     copies = [SimpleNamespace(**vars(r), flags=("perturbed",)) for r in records]
     assert ContactCheck.fit(copies, labels) is None  # nothing exact to set a threshold on

@@ -212,7 +212,7 @@ def score_matrix(
                 np.zeros(len(xt), bool)  # fmt: skip
             if fitted.axis is not None:  # contacts that fit no family's solid or profile
                 unknown |= fitted.axis.unknown(
-                    records, pred, _residuals(records, axis_cache),
+                    records, pred, lambda recs: _residuals(recs, axis_cache),
                     lambda recs, names: _profiles(recs, names, axis_cache))  # fmt: skip
             truth = _labels(records)
             right = pred == truth
@@ -279,8 +279,8 @@ def _profiles(records, names, cache: dict) -> list[float | None]:
 
 def _residuals(records, cache: dict[int, tuple]) -> list[float | None]:
     """Each record's axis residual, computed once a run (batched): keyed by its contacts
-    array, which the noise-aware copies of a grasp share (the array is kept in the cache, so
-    its id is not reused)."""
+    array, which every candidate's copy of a test set shares (the array is kept in the cache,
+    so its id is not reused)."""
     from ..perception.revolution import axis_residuals
 
     todo = {id(r.contact_position): r for r in records if id(r.contact_position) not in cache}

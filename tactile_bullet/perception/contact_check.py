@@ -166,20 +166,21 @@ class ContactCheck:
 
     def verdicts(
         self, records: Sequence, names: Sequence[str],
-        residuals: Sequence[float | None] | None = None, profiles: Callable | None = None,
+        residuals: Callable[[Sequence], list] | None = None, profiles: Callable | None = None,
     ) -> list[Verdict]:  # fmt: skip
         """What each grasp's contacts say of the family its answer ``names``: the axis rule
-        first; the profile rule where the axis rule finds a solid of revolution."""
-        fitted: list[np.ndarray | None] | None = None  # each grasp's axis, fitted once
+        first; the profile rule where the axis rule finds a solid of revolution. ``residuals``,
+        ``profiles``: cached forms of :func:`~.revolution.axis_residuals` and
+        :func:`~.profile_fit.profile_residuals` (the robustness matrix), asked only of the
+        grasps they judge."""
         exact = [i for i, r in enumerate(records) if not sensed(r)]
+        judged = [records[i] for i in exact]
+        found, axes = axis_fits(judged) if residuals is None else (residuals(judged), None)
         axis: list[float | None] = [None] * len(records)
-        if residuals is None:
-            fitted = [None] * len(records)
-            for i, a, f in zip(exact, *axis_fits([records[i] for i in exact]), strict=True):
-                axis[i], fitted[i] = a, f
-        else:
-            for i in exact:
-                axis[i] = residuals[i]
+        fitted: list[np.ndarray | None] = [None] * len(records)  # each grasp's axis, fitted once
+        for k, i in enumerate(exact):
+            axis[i] = found[k]
+            fitted[i] = None if axes is None else axes[k]
         engines = [_engine(r) for r in records]
         out: list[dict[str, Any]] = [{"axis_residual": a} for a in axis]
         profiled = []
@@ -196,8 +197,7 @@ class ContactCheck:
         if profiles is not None:  # a cached form (the robustness matrix)
             values = profiles(chosen, families)
         else:
-            values = profile_residuals(chosen, families,
-                                       None if fitted is None else [fitted[i] for i in profiled])
+            values = profile_residuals(chosen, families, [fitted[i] for i in profiled])
 
         for i, p in zip(profiled, values, strict=True):
             out[i]["profile_residual"] = p
@@ -212,7 +212,7 @@ class ContactCheck:
                                                      [names[i] for i in index]), len(records))
 
     def unknown(self, records: Sequence, names: Sequence[str],
-                residuals: Sequence[float | None] | None = None,
+                residuals: Callable[[Sequence], list] | None = None,
                 profiles: Callable | None = None) -> np.ndarray:  # fmt: skip
         """Which answers the check makes ``unknown``."""
         found = self.verdicts(records, names, residuals, profiles)

@@ -254,10 +254,9 @@ def identify(model, record: GraspRecord) -> dict[str, Any]:
 
     reason = nothing_to_identify(record)
     if reason is not None:
-        return {"shape": None, "reason": reason, "probabilities": {}, "margin": None,
-                "ambiguous": None, "cross_check": None, "unknown": False,
-                "novelty": None, "unknown_why": None,
-                "axis_residual_mm": None, "profile_residual_mm": None}  # fmt: skip
+        from ..learn.doubt import no_doubt
+
+        return {"shape": None, "reason": reason, "probabilities": {}, **no_doubt()}
     classes = [str(c) for c in model.classes]
     x = model.features([record])
     names, proba = model.predict_with_proba([record], x)

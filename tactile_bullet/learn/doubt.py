@@ -404,7 +404,7 @@ def answer_doubt(
     novelty_threshold: float | None = None,
     contacts: Any = None,
 ) -> dict[str, Any]:
-    """``{"margin", "ambiguous", "cross_check", "unknown", "novelty"}`` of one answer:
+    """:func:`no_doubt`'s fields of one answer:
     ``ambiguous`` is ``[shape, runner-up]`` when the margin is below the threshold, else
     ``[shape, second_opinion]`` when the cross-check names another shape, else None; without
     probabilities the margin is None. ``cross_check`` is the second opinion (None where none
@@ -415,12 +415,11 @@ def answer_doubt(
     explains it, and ``shape`` is only the best guess; ``unknown_why`` says which (None where
     known)."""
     opinion = second_opinion or None
-    axis = getattr(contacts, "axis_residual", None)
-    profile = getattr(contacts, "profile_residual", None)
-    out: dict[str, Any] = {"margin": None, "ambiguous": None, "cross_check": opinion,
-                           "unknown": False, "novelty": novelty, "unknown_why": None,
-                           "axis_residual_mm": _mm(axis),
-                           "profile_residual_mm": _mm(profile)}  # fmt: skip
+    out = no_doubt() | {
+        "cross_check": opinion, "novelty": novelty,
+        "axis_residual_mm": _mm(getattr(contacts, "axis_residual", None)),
+        "profile_residual_mm": _mm(getattr(contacts, "profile_residual", None)),
+    }  # fmt: skip
     classes = [str(c) for c in classes]
     if proba is not None and len(classes) >= 2:
         decided = classes.index(shape)
@@ -437,6 +436,14 @@ def answer_doubt(
         out["unknown"] = True
         out["unknown_why"] = NOT_REVOLUTION if why == "axis" else NOT_PROFILE
     return out
+
+
+def no_doubt() -> dict[str, Any]:
+    """The doubt fields of an answer with nothing to doubt (no answer yet, or none asked):
+    every one an answer carries, each empty, so every answer has the same keys."""
+    return {"margin": None, "ambiguous": None, "cross_check": None, "unknown": False,
+            "novelty": None, "unknown_why": None, "axis_residual_mm": None,
+            "profile_residual_mm": None}  # fmt: skip
 
 
 def _mm(metres: float | None) -> float | None:

@@ -314,20 +314,17 @@ class Identifier:
         return self._cache
 
     def _result(self) -> dict[str, Any]:
+        from ..learn.doubt import no_doubt
+
         seg = self._segmenter
         record = self.current_record()
         if record is None:
-            doc = {"shape": None, "probabilities": {}, "margin": None, "ambiguous": None,
-                   "cross_check": None, "unknown": False, "novelty": None,
-                   "unknown_why": None, "axis_residual_mm": None,
-                   "profile_residual_mm": None, "rotation_deg": None,
+            doc = {"shape": None, "probabilities": {}, **no_doubt(), "rotation_deg": None,
                    "grasp_over": False, "samples": 0}  # fmt: skip
         else:
             over = not seg.closing or seg.settled
             answer, probabilities = self._predict(record, decide=over)
-            doubt = {"margin": None, "ambiguous": None, "cross_check": None, "unknown": False,
-                     "novelty": None, "unknown_why": None, "axis_residual_mm": None,
-                     "profile_residual_mm": None}  # fmt: skip
+            doubt = no_doubt()
             if over and answer is not None:
                 from ..learn.doubt import doubts
 

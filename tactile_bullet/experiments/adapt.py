@@ -9,9 +9,8 @@ The candidate ways (measured on hands written by others in docs/robustness.md an
   fitted on the known grasps alone.
 - ``default-shifted``: the default's own training grasps moved by the hand's mean feature
   offset, with the known grasps added five times over, an SVM on the default's descriptor
-  (``coupled-finger-points``). The offset is the mean over shapes of
-  (mean of the known grasps of a shape - mean of the default's training grasps of that
-  shape). The default's training
+  (``coupled-finger-points``). The offset is the mean over shapes of (mean of the known grasps
+  of a shape - mean of the default's training grasps of that shape). The default's training
   records are not shipped, only their features and labels beside its model file
   (``default_training.npz``, sha256-checked), which this way reads (:func:`default_training`).
 - ``train-known`` (only with ``data``, a simulated training set such as a randomised preset):

@@ -100,10 +100,11 @@ class Model:
     grasps, and where that answers ``unknown`` (None in a model file written before it
     existed: no answer is unknown). Saved as ``novelty.*`` arrays."""
     axis: Any = None
-    """:class:`tactile_bullet.perception.revolution.ContactCheck`: thresholds on how far a
-    grasp's contact normals miss every axis, per engine and family, where that answers
-    ``unknown`` (None where the training grasps had no contacts, or in a file written before
-    it existed). Saved as ``axis_check`` in the metadata."""
+    """:class:`tactile_bullet.perception.contact_check.ContactCheck`: thresholds on how far a
+    grasp's contact normals miss every axis and its points the named family's surface, per
+    engine and family, where that answers ``unknown`` (None where the training grasps had no
+    contacts, or in a file written before it existed). Saved as ``axis_check`` in the
+    metadata."""
     software_version: str = __version__
     format_version: int = MODEL_FORMAT_VERSION
 

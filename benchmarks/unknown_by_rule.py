@@ -11,6 +11,10 @@ docs/robustness.md's replicate tables break down by rule comes from here.
         --columns mujoco,household,noise
     python benchmarks/unknown_by_rule.py --data DIR   # any labelled dataset, as simulated
 
+``--min-points N`` first refits the model's contact check on its training sets (read from
+``--cache``; ``--training``, default the shipped default's) with the profile rule needing N
+contact points: the seventh replicate's comparison of 10 against 7.
+
 ``--sensor`` also reads each out-of-family set through the ``noise`` column's sensor model (1
 deg joint noise, 3 deg calibration bias; contacts moved with their links): what a hand whose
 contacts come through its joint sensors would get (docs/robustness.md, the sixth replicate).
@@ -59,6 +63,10 @@ def main(argv=None) -> int:
     ap.add_argument("--columns", default="mujoco,household,noise", help="in-family columns")
     ap.add_argument("--model", default=None, help="a model file (default: the shipped one)")
     ap.add_argument("--seed", type=int, default=0, help="the run's --seed")
+    ap.add_argument("--min-points", type=int, default=None,
+                    help="refit the contact check with the profile rule needing N points")
+    ap.add_argument("--training", default=None,
+                    help="with --min-points: the matrix training the model was fitted on")
     ap.add_argument("--sensor", action="store_true",
                     help="also read the out-of-family sets through the noise column's sensors")
     args = ap.parse_args(argv)
@@ -71,6 +79,8 @@ def main(argv=None) -> int:
         ap.error("give --cache (a robustness matrix's data) or --data")
     tag = f"-r{args.replicate}" if args.replicate else ""
     cache = Path(args.cache)
+    if args.min_points is not None:
+        model = _refitted(model, cache, args.min_points, args.training)
     from tactile_bullet.learn.perturb import perturb_all
 
     for name in OUT_OF_FAMILY_SETS:
@@ -93,6 +103,23 @@ def main(argv=None) -> int:
         sets = {s: read_records(cache / f"robust-{s}{tag}").records for s in column.sets}
         _breakdown(f"column {name}", model, read_column(column, sets, args.seed))
     return 0
+
+
+def _refitted(model, cache: Path, min_points: int, training: str | None):
+    """``model`` with its contact check fitted again on its training sets, the profile rule
+    needing ``min_points`` contact points."""
+    from dataclasses import replace
+
+    from tactile_bullet.experiments import robustness as R
+    from tactile_bullet.learn.default import default_meta
+    from tactile_bullet.learn.novelty import grasp_groups
+    from tactile_bullet.perception import profile_fit
+    from tactile_bullet.perception.contact_check import ContactCheck
+
+    profile_fit.MIN_POINTS = min_points
+    train = R.training_records(cache, "full", training or default_meta()["training"])
+    labels = [R.FAMILY_OBJECTS.get(r.shape, r.shape) for r in train]
+    return replace(model, axis=ContactCheck.fit(train, labels, grasp_groups(train)))
 
 
 def _breakdown(title: str, model, records) -> None:

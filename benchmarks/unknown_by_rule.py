@@ -15,6 +15,10 @@ docs/robustness.md's replicate tables break down by rule comes from here.
 ``--cache``; ``--training``, default the shipped default's) with the profile rule needing N
 contact points: the seventh replicate's comparison of 10 against 7.
 
+``--no-torus`` scores the answers as they were before the ninth replicate's change (a sphere
+its contacts reject stays a sphere, ``unknown``, instead of the torus that fits them): the
+change's own judgement compares a run with it and one without.
+
 ``--sensor`` also reads each out-of-family set through the ``noise`` column's sensor model (1
 deg joint noise, 3 deg calibration bias; contacts moved with their links): what a hand whose
 contacts come through its joint sensors would get (docs/robustness.md, the sixth replicate).
@@ -43,9 +47,10 @@ RULES = {UNLIKE_TRAINING: "novelty", NOT_REVOLUTION: "axis", NOT_PROFILE: "profi
 
 
 def _answers(model, records):
-    names = [str(n) for n in model.predict_records(records)]
+    names, _, was = model.answers(records)
+    names = [str(n) for n in names]
     found = doubts(model, records, names, None, cross_check=False)
-    return names, [RULES.get(d["unknown_why"]) for d in found]
+    return names, [RULES.get(d["unknown_why"]) for d in found], sum(w is not None for w in was)
 
 
 def _shares(rules: list) -> str:
@@ -69,8 +74,14 @@ def main(argv=None) -> int:
                     help="with --min-points: the matrix training the model was fitted on")
     ap.add_argument("--sensor", action="store_true",
                     help="also read the out-of-family sets through the noise column's sensors")
+    ap.add_argument("--no-torus", action="store_true",
+                    help="without the ninth replicate's torus-for-sphere renaming")
     args = ap.parse_args(argv)
     provenance(argv)
+    if args.no_torus:
+        from tactile_bullet.perception import contact_check
+
+        contact_check.TORUS_FOR_SPHERE = False
     model = resolve_model(args.model)
     if args.data:
         _breakdown("data " + args.data, model, read_records(args.data).records)
@@ -89,7 +100,7 @@ def main(argv=None) -> int:
         if args.sensor:
             readings.append((" through the sensor model", perturb_all(simulated, NOISE, args.seed)))
         for how, records in readings:
-            _, rules = _answers(model, records)
+            _, rules, _ = _answers(model, records)
             per: dict[str, list] = defaultdict(list)
             for r, rule in zip(records, rules, strict=True):
                 per[(r.mesh or {}).get("name") or r.shape].append(rule)
@@ -124,10 +135,12 @@ def _refitted(model, cache: Path, min_points: int, training: str | None):
 
 def _breakdown(title: str, model, records) -> None:
     """In-family grasps: the share answered unknown by rule, and which ones (right or not)."""
-    names, rules = _answers(model, records)
+    names, rules, renamed = _answers(model, records)
     wrong = sum(bool(rule) and r.shape != n for r, n, rule in zip(records, names, rules,
                                                                    strict=True))  # fmt: skip
-    print(f"{title}: {_shares(rules)}; {wrong} of them wrong answers")
+    right = np.mean([r.shape == n for r, n in zip(records, names, strict=True)])
+    print(f"{title}: accuracy {100 * right:.1f}%, {renamed} renamed by the contacts; "
+          f"{_shares(rules)}; {wrong} of them wrong answers")  # fmt: skip
     which = Counter((r.shape, n, rule) for r, n, rule in zip(records, names, rules,
                                                              strict=True) if rule)  # fmt: skip
     for (truth, answer, rule), k in which.most_common():

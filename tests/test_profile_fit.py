@@ -1,7 +1,9 @@
 """The profile rule (perception/profile_fit.py): contact points on a family's surface, ends
 included, lie on its best surface; an egg's do not lie on a cylinder's or a sphere's; fits
 need enough contacts; the model's check answers unknown for it, and a simulated ovoid (no
-family) misses the families it is mistaken for while a simulated cylinder fits its own."""
+family) misses the families it is mistaken for while a simulated cylinder fits its own. A
+torus read as a sphere is named torus by its contacts (ContactCheck.contact_names); an egg
+read as a sphere is not."""
 
 from __future__ import annotations
 
@@ -11,8 +13,9 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 
+from tactile_bullet.perception import contact_check
 from tactile_bullet.perception.contact_check import ContactCheck
-from tactile_bullet.perception.profile_fit import MIN_POINTS, profile_residuals
+from tactile_bullet.perception.profile_fit import MIN_POINTS, profile_residuals, torus_residuals
 
 FINGERS = (-0.033, -0.011, 0.011, 0.033)
 
@@ -65,6 +68,11 @@ def hyperboloid(u):  # waist 0.03, c = 0.05
 def egg(u):  # a prolate ellipsoid: semi-axes 0.09 along, 0.04 across
     r = 0.04 * math.sqrt(1 - (u / 0.09) ** 2)
     return r, -0.04 * u / (0.09**2 * math.sqrt(1 - (u / 0.09) ** 2))
+
+
+def torus(u):  # the outer rim of a tube of radius 0.042 centred 0.048 off the axis
+    root = math.sqrt(0.042**2 - u**2)
+    return 0.048 + root, -u / root
 
 
 @pytest.mark.parametrize("family, profile", [("cylinder", cylinder), ("cone", cone),
@@ -151,3 +159,40 @@ def test_a_simulated_ovoid_misses_the_families_it_is_taken_for_and_a_cylinder_fi
     cyl = simulate_grasp("cylinder", {"radius": 0.035, "length": 0.12})
     off = profile_residuals([ovoid, ovoid, cyl], ["cylinder", "sphere", "cylinder"])
     assert off[0] > 1e-3 and off[1] > 1e-3 and off[2] < 2e-4
+
+
+def test_a_torus_read_as_a_sphere_lies_on_a_torus_and_off_every_sphere():
+    record = _record(torus)
+    assert torus_residuals([record])[0] < 2e-4
+    assert profile_residuals([record], ["sphere"])[0] > 1e-3  # the default's floor
+
+
+def test_an_egg_and_a_prism_lie_off_every_torus():
+    """What keeps objects of no family unknown: the torus's rim is an arc centred 40-70 mm
+    off the axis, which an egg's or a prism's section is not."""
+    assert min(torus_residuals([_record(egg), _prism_contacts(6, count=8)])) > 1e-3
+
+
+def _check(torus_axis: float | None = 0.006) -> ContactCheck:
+    axis = {"sphere": 0.002, "cylinder": 0.003} | ({"torus": torus_axis} if torus_axis else {})
+    return ContactCheck({"bullet": axis}, profile={"bullet": {"sphere": 0.001,
+                                                              "cylinder": 0.001}})  # fmt: skip
+
+
+def test_the_contacts_name_a_torus_read_as_a_sphere_and_nothing_else():
+    tube, ball, egg_ = _record(torus), _record(sphere), _record(egg)
+    records = [tube, ball, egg_, tube]
+    names = ["sphere", "sphere", "sphere", "cylinder"]
+    assert _check().contact_names(records, names) == ["torus", None, None, None]
+    # the egg stays a sphere its contacts reject: unknown, by the profile rule
+    assert [v.unknown_why for v in _check().verdicts(records[:3], names[:3])] == \
+        ["profile", None, "profile"]  # fmt: skip
+
+
+def test_no_torus_without_its_axis_threshold_a_sensed_grasp_or_the_switch(monkeypatch):
+    tube = _record(torus)
+    assert _check(torus_axis=None).contact_names([tube], ["sphere"]) == [None]
+    sensed = SimpleNamespace(**vars(tube), flags=("perturbed",))
+    assert _check().contact_names([sensed], ["sphere"]) == [None]
+    monkeypatch.setattr(contact_check, "TORUS_FOR_SPHERE", False)
+    assert _check().contact_names([tube], ["sphere"]) == [None]

@@ -290,7 +290,7 @@ def test_streaming_names_the_shape_once_the_grasp_is_held(model, held_out_record
                               "ambiguous": None, "cross_check": None, "unknown": False,
                               "novelty": None, "unknown_why": None,
                               "axis_residual_mm": None, "profile_residual_mm": None,
-                              "rotation_deg": None,
+                              "renamed_from": None, "rotation_deg": None,
                               "grasp_over": False, "samples": 0}  # fmt: skip
     t0 = 0.0
     want = workflow.predict(model, held_out_records)

@@ -218,7 +218,7 @@ def grasp_answer(record, fit: dict | None, signature: dict | None) -> dict:
         "novelty": doc.get("novelty"), "unknown_why": doc.get("unknown_why"),
         "axis_residual_mm": doc.get("axis_residual_mm"),
         "profile_residual_mm": doc.get("profile_residual_mm"),
-        "cross_check": doc.get("cross_check"),
+        "cross_check": doc.get("cross_check"), "renamed_from": doc.get("renamed_from"),
         "rotation_deg": rotation, "rotation_withheld": withheld, "others": others,
     }  # fmt: skip
 
@@ -333,8 +333,20 @@ def _answer_line(doc: dict) -> str:
     if answer.get("unknown"):
         return (f"identified: UNKNOWN - {unknown_reason(answer, how)}; best guess "
                 f"{answer['shape']}")
-    p = answer["probabilities"].get(answer["shape"])
-    line = f"identified: {answer['shape']} by {how}" + (f", p={p:.2f}" if p is not None else "")
+    if answer.get("renamed_from"):  # the probabilities are the classifier's, for its answer
+        p = answer["probabilities"].get(answer["renamed_from"])
+        line = f"identified: {answer['shape']} by {how} ({renamed_reason(answer)}" + (
+            f"; the classifier's p={p:.2f})" if p is not None else ")")
+    else:
+        p = answer["probabilities"].get(answer["shape"])
+        line = f"identified: {answer['shape']} by {how}" + (f", p={p:.2f}" if p is not None
+                                                              else "")  # fmt: skip
     if answer.get("ambiguous"):
         line += f" - AMBIGUOUS: {answer['ambiguous'][0]} or {answer['ambiguous'][1]}"
     return line
+
+
+def renamed_reason(doc: dict) -> str:
+    """Why an answer is not its classifier's (its ``renamed_from``), in words."""
+    return (f"the classifier read {doc['renamed_from']}; the contacts fit no "
+            f"{doc['renamed_from']} but a {doc['shape']}")

@@ -39,6 +39,10 @@ def answer_text(doc) -> str:
         from .grasp import unknown_reason
 
         return f"UNKNOWN: {unknown_reason(doc)}; best guess {doc['shape']}"
+    if doc.get("renamed_from"):
+        from .grasp import renamed_reason
+
+        return f"{doc['shape']} ({renamed_reason(doc)}){ambiguity_text(doc)}"
     return f"{doc['shape']}{ambiguity_text(doc)}"
 
 

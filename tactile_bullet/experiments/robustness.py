@@ -171,6 +171,7 @@ def score_matrix(
     """One row per candidate and training: accuracy, doubt and unknown share per column (None
     with a ``reason`` where the method cannot run there), its score and its eligibility."""
     from ..learn.doubt import cross_flags, flagged, margins
+    from ..learn.models import renamed
     from ..plugins import compatible, get_descriptor
 
     say = log or (lambda _m: None)
@@ -203,6 +204,12 @@ def score_matrix(
                 continue
             xt = np.asarray(desc.transform(records), float)
             pred = np.asarray(fitted.estimator.predict(xt)).astype(str)
+            if fitted.axis is not None:  # a torus read as a sphere, named by its contacts
+                pred = renamed(pred, [n if n in classes else None for n in
+                                      fitted.axis.contact_names(
+                                          records, pred, lambda recs: _residuals(recs, axis_cache),
+                                          lambda recs, names: _profiles(recs, names, axis_cache),
+                                          lambda recs: _tori(recs, axis_cache))])  # fmt: skip
             proba = np.asarray(fitted.estimator.predict_proba(xt), float)
             m = margins(proba, np.array([classes.index(p) for p in pred]))[0]
             flags = flagged(m, fitted.calibration.get("margin"))
@@ -275,6 +282,18 @@ def _profiles(records, names, cache: dict) -> list[float | None]:
     for (key, r), value in zip(todo.items(), values, strict=True):
         cache[key] = (r.contact_position, value)
     return [cache[(id(r.contact_position), str(n))][1] for r, n in zip(records, names, strict=True)]
+
+
+def _tori(records, cache: dict) -> list[float | None]:
+    """Each record's torus residual (``profile_fit.torus_residuals``), computed once a run per
+    record (keyed as :func:`_profiles` keys, under the name ``torus-fit``)."""
+    from ..perception.profile_fit import torus_residuals
+
+    todo = {id(r.contact_position): r for r in records
+            if (id(r.contact_position), "torus-fit") not in cache}  # fmt: skip
+    for (key, r), value in zip(todo.items(), torus_residuals(list(todo.values())), strict=True):
+        cache[(key, "torus-fit")] = (r.contact_position, value)
+    return [cache[(id(r.contact_position), "torus-fit")][1] for r in records]
 
 
 def _residuals(records, cache: dict[int, tuple]) -> list[float | None]:

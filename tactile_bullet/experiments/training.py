@@ -211,12 +211,13 @@ def evaluate(model, records: Iterable[GraspRecord]) -> dict[str, Any]:
             f"classes ({', '.join(known)})"
         )
     x = model.features(records)
-    y_pred, proba = model.predict_with_proba(records, x)
+    y_pred, proba, renamed_from = model.answers(records, x)
     y_pred = np.asarray(y_pred).astype(str)
     doc = evaluation_report(y_true, y_pred, class_order(known, y_true), records)
     from ..learn.doubt import evaluation_doubt
 
-    doc["ambiguous"] = evaluation_doubt(model, records, y_true, y_pred, proba, features=x)
+    doc["ambiguous"] = evaluation_doubt(model, records, y_true, y_pred, proba, features=x,
+                                        renamed_from=renamed_from)  # fmt: skip
     # grasps of no family the model knows, counted apart from the family's (learn/novelty.py)
     doc["unknown"] = doc["ambiguous"].pop("unknown")
     unknown = sorted(set(y_true) - set(known))
@@ -259,7 +260,7 @@ def identify(model, record: GraspRecord) -> dict[str, Any]:
         return {"shape": None, "reason": reason, "probabilities": {}, **no_doubt()}
     classes = [str(c) for c in model.classes]
     x = model.features([record])
-    names, proba = model.predict_with_proba([record], x)
+    names, proba, renamed_from = model.answers([record], x)
     shape = str(names[0])
     if proba is None:
         probabilities = {c: float(c == shape) for c in classes}
@@ -267,7 +268,7 @@ def identify(model, record: GraspRecord) -> dict[str, Any]:
         probabilities = {c: float(p) for c, p in zip(classes, proba[0], strict=True)}
     from ..learn.doubt import doubts
 
-    (doubt,) = doubts(model, [record], [shape], proba, features=x)
+    (doubt,) = doubts(model, [record], [shape], proba, features=x, renamed_from=renamed_from)
     return {"shape": shape, "probabilities": probabilities, **doubt}
 
 

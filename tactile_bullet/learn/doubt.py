@@ -35,10 +35,11 @@ alone, with the whole ``FALSE_ALARM`` budget.
 from __future__ import annotations
 
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
+
+from .known_grasps import KNOWN_DESCRIPTOR, MAX_KNOWN_GRASPS, KnownGrasps  # noqa: F401 - re-exported
 
 FALSE_ALARM = 0.05
 """Share of held-out right answers the calibrated threshold may flag."""
@@ -56,100 +57,6 @@ all, and the 5% threshold read from ~190 right answers is off by ~1.6 points of 
 times an svm's (docs/performance.md, "Shape fits on every core")."""
 KNOWN_CHECK = "known-grasps"
 """The second opinion of a model fitted with the user's known grasps (``train --known``)."""
-KNOWN_DESCRIPTOR = "signature+coupled-joints"
-"""What the known grasps are compared in: the signature's shape of the closure and the
-absolute joint angles, J1 + J2 read together so no J1/J2 split is assumed."""
-
-
-MAX_KNOWN_GRASPS = 100_000
-"""Most known grasps a model keeps (``train --known``): ~30 MB of features. A model file whose
-``known.*`` arrays declare more is refused before they are read (``models.KNOWN_MEMBER_LIMIT``)."""
-
-
-@dataclass(frozen=True)
-class KnownGrasps:
-    """Grasps of the user's hand whose shapes are known, kept in a model file to second its
-    answers: each answer is checked against the shape of the nearest known grasp.
-
-    ``features`` (n, d) are ``descriptor``'s features of the grasps; distances scale each
-    feature by its spread over the known grasps (features that do not vary among them are
-    left out: they cannot tell the grasps apart, and a zero spread would magnify noise)."""
-
-    features: np.ndarray
-    labels: np.ndarray
-    descriptor: str = KNOWN_DESCRIPTOR
-
-    @classmethod
-    def from_records(cls, records: Sequence, descriptor: str = KNOWN_DESCRIPTOR) -> KnownGrasps:
-        from ..errors import UsageError
-        from ..plugins import get_descriptor
-
-        x = np.asarray(get_descriptor(descriptor).transform(list(records)), dtype=float)
-        known = cls(x, np.array([str(r.shape) for r in records]), descriptor)
-        if len(records) > MAX_KNOWN_GRASPS:
-            raise UsageError(f"--known holds {len(records):,} grasps; at most "
-                             f"{MAX_KNOWN_GRASPS:,} can second a model's answers")  # fmt: skip
-        if not known.varies():
-            raise UsageError(
-                f"--known: the known grasps' {descriptor} features do not vary among them, so "
-                "no known grasp could be told nearer than another and the check of answers "
-                "would be off; give grasps of at least two shapes"
-            )
-        return known
-
-    def varies(self) -> bool:
-        """Whether any feature varies among the known grasps (none: the check is off)."""
-        x = np.asarray(self.features, dtype=float)
-        return x.ndim == 2 and len(x) > 1 and bool(np.any(x.std(axis=0) > 1e-9))
-
-    def _scaled(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        mean, spread = self.features.mean(axis=0), self.features.std(axis=0)
-        keep = spread > 1e-9
-        return ((self.features - mean)[:, keep] / spread[keep],
-                (np.asarray(x, dtype=float) - mean)[:, keep] / spread[keep])  # fmt: skip
-
-    def nearest_of(self, x: np.ndarray) -> np.ndarray:
-        """The shape of the nearest known grasp to each row of ``x`` (the features); '' (no
-        opinion) for every row where no feature varies among the known grasps."""
-        known, rows = self._scaled(x)
-        if len(rows) == 0 or known.shape[1] == 0:
-            return np.full(len(rows), "", dtype=object).astype(str)
-        distance = np.linalg.norm(rows[:, None, :] - known[None, :, :], axis=2)
-        return self.labels[np.argmin(distance, axis=1)].astype(str)
-
-    def nearest(self, records: Sequence) -> np.ndarray:
-        """The shape of the nearest known grasp to each record."""
-        from ..plugins import get_descriptor
-
-        x = np.asarray(get_descriptor(self.descriptor).transform(list(records)), dtype=float)
-        return self.nearest_of(x)
-
-    def self_agreement(self) -> float | None:
-        """Share of known grasps whose nearest *other* known grasp has their shape (None with
-        fewer than two grasps of every shape): how far the check can be trusted on this hand."""
-        _, counts = np.unique(self.labels, return_counts=True)
-        known, _ = self._scaled(self.features[:0])
-        if len(counts) < 2 or counts.min() < 2 or known.shape[1] == 0:
-            return None
-        distance = np.linalg.norm(known[:, None, :] - known[None, :, :], axis=2)
-        np.fill_diagonal(distance, np.inf)
-        return float(np.mean(self.labels[np.argmin(distance, axis=1)] == self.labels))
-
-    def check(self, classes: Sequence[str]) -> None:
-        """Refuse (ValueError) grasps the model cannot have been fitted with."""
-        x, y = self.features, self.labels
-        if x.ndim != 2 or y.ndim != 1 or len(x) != len(y) or len(y) == 0:
-            raise ValueError("known grasps' features and labels do not match")
-        if not np.all(np.isfinite(x)):
-            raise ValueError("known grasps' features are not finite")
-        if len(y) > MAX_KNOWN_GRASPS:
-            raise ValueError(f"it holds {len(y):,} known grasps, over the {MAX_KNOWN_GRASPS:,} "
-                             "train --known writes")  # fmt: skip
-        if not self.varies():
-            raise ValueError("its known grasps' features do not vary: they cannot second answers")
-        extra = {str(v) for v in y} - {str(c) for c in classes}
-        if extra:
-            raise ValueError(f"a known grasp is a {sorted(extra)[0]!r}, not one of its classes")
 
 
 def cross_check_applies(classes: Sequence[str], classifier: str) -> bool:
@@ -403,6 +310,7 @@ def answer_doubt(
     novelty: float | None = None,
     novelty_threshold: float | None = None,
     contacts: Any = None,
+    renamed_from: str | None = None,
 ) -> dict[str, Any]:
     """:func:`no_doubt`'s fields of one answer:
     ``ambiguous`` is ``[shape, runner-up]`` when the margin is below the threshold, else
@@ -413,12 +321,14 @@ def answer_doubt(
     where the grasp's ``contacts`` (a :class:`~tactile_bullet.perception.contact_check.Verdict`)
     fit no solid of revolution, or no profile of the named family: no family the model knows
     explains it, and ``shape`` is only the best guess; ``unknown_why`` says which (None where
-    known)."""
+    known). ``renamed_from``: the classifier's own answer where the grasp's contacts named
+    ``shape`` instead (a torus read as a sphere: ``Model.answers``)."""
     opinion = second_opinion or None
     out = no_doubt() | {
         "cross_check": opinion, "novelty": novelty,
         "axis_residual_mm": _mm(getattr(contacts, "axis_residual", None)),
         "profile_residual_mm": _mm(getattr(contacts, "profile_residual", None)),
+        "renamed_from": renamed_from,
     }  # fmt: skip
     classes = [str(c) for c in classes]
     if proba is not None and len(classes) >= 2:
@@ -443,7 +353,7 @@ def no_doubt() -> dict[str, Any]:
     every one an answer carries, each empty, so every answer has the same keys."""
     return {"margin": None, "ambiguous": None, "cross_check": None, "unknown": False,
             "novelty": None, "unknown_why": None, "axis_residual_mm": None,
-            "profile_residual_mm": None}  # fmt: skip
+            "profile_residual_mm": None, "renamed_from": None}  # fmt: skip
 
 
 def _mm(metres: float | None) -> float | None:
@@ -502,10 +412,12 @@ def second_opinion(model) -> str | None:
 def doubts(
     model, records: Sequence, names: Sequence[str], proba: np.ndarray | None,
     cross_check: bool = True, features: np.ndarray | None = None,
+    renamed_from: Sequence[str | None] | None = None,
 ) -> list:  # fmt: skip
     """:func:`answer_doubt` of each of a model's answers, with its second opinion
     (:func:`second_opinion`; unless ``cross_check`` is False: the margin only, sooner).
-    ``features``: the records' features where the caller has them (else computed again)."""
+    ``features``: the records' features where the caller has them (else computed again);
+    ``renamed_from``: ``Model.answers``'s, where the caller has it."""
     classes = [str(c) for c in model.classes]
     threshold = model.doubt_margin
     others: Sequence[str | None] = [None] * len(names)
@@ -526,18 +438,21 @@ def doubts(
         verdicts = axis.verdicts_many(records, names)
     return [
         answer_doubt(classes, str(n), None if proba is None else proba[i], threshold, others[i],
-                     scores[i], limit, verdicts[i])  # fmt: skip
+                     scores[i], limit, verdicts[i],
+                     None if renamed_from is None else renamed_from[i])  # fmt: skip
         for i, n in enumerate(names)
     ]
 
 
 def evaluation_doubt(
-    model, records: Sequence, y_true, y_pred, proba, features: np.ndarray | None = None
-) -> dict[str, Any]:
+    model, records: Sequence, y_true, y_pred, proba, features: np.ndarray | None = None,
+    renamed_from: Sequence[str | None] | None = None,
+) -> dict[str, Any]:  # fmt: skip
     """``evaluate``'s ``ambiguous`` block: ``{"margin", "cross_check", "flagged",
-    "right_flagged", "wrong_flagged"}``, the model's threshold, its second opinion, and the
-    share of all, right and wrong answers flagged (docs/json.md)."""
-    found = doubts(model, records, y_pred, proba, features=features)
+    "right_flagged", "wrong_flagged", "renamed"}``, the model's threshold, its second opinion,
+    the share of all, right and wrong answers flagged, and how many answers the grasps'
+    contacts renamed (``Model.answers``; docs/json.md)."""
+    found = doubts(model, records, y_pred, proba, features=features, renamed_from=renamed_from)
     flags = np.array([d["ambiguous"] is not None or d["unknown"] for d in found], dtype=bool)
     unknown = np.array([d["unknown"] for d in found], dtype=bool)
     truth = np.asarray(y_true).astype(str)
@@ -551,6 +466,7 @@ def evaluation_doubt(
 
     return {
         "margin": model.doubt_margin, "cross_check": cross, **flag_shares(flags, correct),
+        "renamed": sum(d["renamed_from"] is not None for d in found),
         "unknown": {
             "threshold": None if novelty is None else novelty.threshold,
             "in_family": share(family), "out_of_family": share(~family),

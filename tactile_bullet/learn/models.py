@@ -123,8 +123,20 @@ class Model:
         return np.asarray(self.describe_descriptor().transform(records), dtype=float)
 
     def predict_records(self, records: Sequence) -> np.ndarray:
-        """Predicted shape names, one per record."""
-        return np.asarray(self.estimator.predict(self.features(records))).astype(str)
+        """Predicted shape names, one per record: the classifier's, renamed where the grasp's
+        contacts name another family (:meth:`contact_names`)."""
+        names = np.asarray(self.estimator.predict(self.features(records))).astype(str)
+        return renamed(names, self.contact_names(records, names))
+
+    def contact_names(self, records: Sequence, names: Sequence[str]) -> list[str | None]:
+        """For each of the classifier's answers, the family the grasp's contacts name instead
+        (a torus read as a sphere:
+        :meth:`~tactile_bullet.perception.contact_check.ContactCheck.contact_names`), or None;
+        all None without a contact check or for a class the model does not know."""
+        if self.axis is None or not len(records):
+            return [None] * len(records)
+        known = set(self.classes)
+        return [n if n in known else None for n in self.axis.contact_names(records, names)]
 
     def predict_proba_records(self, records: Sequence) -> np.ndarray:
         """(n, n_classes) probabilities; columns follow ``classes``."""
@@ -137,13 +149,25 @@ class Model:
         pass of the descriptor: the estimator's own decision is kept, since it can differ
         from the probability argmax (SVC with Platt scaling). ``x``: the records' features
         where the caller computed them already (the answer's doubt reads them too)."""
+        names, proba, _ = self.answers(records, x)
+        return names, proba
+
+    def answers(
+        self, records: Sequence, x: np.ndarray | None = None
+    ) -> tuple[np.ndarray, np.ndarray | None, list[str | None]]:
+        """:meth:`predict_with_proba`'s names and probabilities, and for each answer the
+        classifier's own name where the grasp's contacts renamed it (else None). The
+        probabilities stay the classifier's: a renamed answer's margin is negative, so its
+        doubt shows both names."""
         x = self.features(records) if x is None else np.asarray(x, dtype=float)
         names = np.asarray(self.estimator.predict(x)).astype(str)
         try:
             proba = np.asarray(self.estimator.predict_proba(x), dtype=float)
         except (AttributeError, NotImplementedError):
             proba = None
-        return names, proba
+        instead = self.contact_names(records, names)
+        was = [str(n) if other else None for n, other in zip(names, instead, strict=True)]
+        return renamed(names, instead), proba, was
 
     @property
     def doubt_margin(self) -> float | None:
@@ -152,6 +176,12 @@ class Model:
         from .doubt import model_threshold
 
         return model_threshold(self.info)
+
+
+def renamed(names: np.ndarray, instead: Sequence[str | None]) -> np.ndarray:
+    """``names`` with each replaced where ``instead`` names another family."""
+    out = [str(o) if o else str(n) for n, o in zip(names, instead, strict=True)]
+    return np.asarray(out, dtype=str)
 
 
 def _qualname(kind: type) -> str:

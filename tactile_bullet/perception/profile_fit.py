@@ -16,9 +16,12 @@ from the axis):
   the flat ends;
 - sphere: a sphere (fitted directly, algebraically: any axis through its centre fits).
 
-The torus is left out: its tube's facets (32 around it) put its own contact points 3-13 mm
-off the best torus on 2.5% of its training grasps (a prototype that modelled it), so a
-threshold there would flag nothing.
+The torus is not judged: its tube's facets (32 around it) put its own contact points 3-13 mm
+off the best torus on 2.5% of its training grasps, so a threshold there would flag nothing
+(4.6-5.3 mm at 1%: docs/robustness.md, the ninth replicate's declaration). Its surface,
+rho = R + sqrt(r^2 - s^2) on the outer rim, is fitted only to ask whether a grasp the sphere
+does not explain is a torus read as a sphere (:func:`torus_residuals`, for
+:meth:`.contact_check.ContactCheck.contact_names`).
 
 The fit is batched over grasps and starts (Levenberg-Marquardt on a soft-L1 loss, with a
 forward-difference Jacobian): the axis that the normals give and the palm's own x axis, each
@@ -59,12 +62,17 @@ RANGES: dict[str, tuple[tuple[float, float], ...]] = {
 """Each modelled family's size ranges (m), those of ``objects/shapes.py``; the hyperboloid's
 end radius as a ratio to its waist, kept above 1 (a waist, never a bulge)."""
 FAMILIES = tuple(RANGES)
+"""The families an answer is judged by (:func:`profile_residuals`)."""
+TORUS_RANGES = ((0.044, 0.07), (0.038, 0.055))
+"""The torus's distance from the axis to its tube's centre and the tube's radius (m), those
+of ``objects/shapes.py``: fitted by :func:`torus_residuals`, never judged."""
+_SIZE_RANGES = {**RANGES, "torus": TORUS_RANGES}
 
 
 def _sizes(z: np.ndarray, family: str) -> list[np.ndarray]:
     """The sizes from their unbounded forms: a logistic map onto the widened ranges."""
     out = []
-    for k, (lo, hi) in enumerate(RANGES[family]):
+    for k, (lo, hi) in enumerate(_SIZE_RANGES[family]):
         pad = SLACK * (hi - lo)
         out.append(lo - pad + (hi - lo + 2 * pad) / (1.0 + np.exp(-np.clip(z[..., k], -30, 30))))
     return out
@@ -100,6 +108,8 @@ def _distances(v: np.ndarray, points: np.ndarray, family: str, sign: float) -> n
     if family == "cone":
         r, h = p[0], p[1] / 2
         return np.minimum(_segment(s, rho, -h, r, h, zero), _segment(s, rho, -h, zero, -h, r))
+    if family == "torus":  # the tube: a circle of radius p[1] centred p[0] off the axis
+        return np.abs(np.hypot(rho - p[0], s) - p[1])
     waist, ratio, h = p[0], np.maximum(p[1], 1.0 + 1e-3), p[2] / 2
     end = waist * ratio
     c2 = h * h / (ratio**2 - 1.0)
@@ -152,19 +162,68 @@ def _levenberg_marquardt(v, points, mask, family, sign) -> np.ndarray:
     return np.sqrt((e_best**2).sum(axis=1) / np.maximum(mask.sum(axis=1), 1))
 
 
+def _best_spheres(points: np.ndarray, mask: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(centres (g, 3), radii (g,)) of each grasp's algebraic best sphere through its points."""
+    centres, radii = np.zeros((len(points), 3)), np.zeros(len(points))
+    for i in range(len(points)):
+        x = points[i][mask[i]]
+        a = np.c_[2.0 * x, np.ones(len(x))]
+        sol = np.linalg.lstsq(a, (x**2).sum(axis=1), rcond=None)[0]
+        centres[i] = sol[:3]
+        radii[i] = np.sqrt(max(sol[3] + sol[:3] @ sol[:3], 0.0))
+    return centres, radii
+
+
 def _sphere(points: np.ndarray, mask: np.ndarray) -> np.ndarray:
     """RMS distance of each grasp's points from its algebraic best sphere (radius held to the
     family's widened range)."""
     lo, hi = RANGES["sphere"][0]
     pad = SLACK * (hi - lo)
+    centres, radii = _best_spheres(points, mask)
     out = np.zeros(len(points))
     for i in range(len(points)):
         x = points[i][mask[i]]
-        a = np.c_[2.0 * x, np.ones(len(x))]
-        sol = np.linalg.lstsq(a, (x**2).sum(axis=1), rcond=None)[0]
-        centre = sol[:3]
-        radius = np.clip(np.sqrt(max(sol[3] + centre @ centre, 0.0)), lo - pad, hi + pad)
-        out[i] = np.sqrt(np.mean((np.linalg.norm(x - centre, axis=1) - radius) ** 2))
+        radius = np.clip(radii[i], lo - pad, hi + pad)
+        out[i] = np.sqrt(np.mean((np.linalg.norm(x - centres[i], axis=1) - radius) ** 2))
+    return out
+
+
+def _torus(points: np.ndarray, mask: np.ndarray) -> np.ndarray:
+    """RMS distance of each grasp's points from its best torus around an axis near the palm's
+    x: started at the points' best sphere's centre (a torus grasped round its rim has its
+    centre there; the normals' axis is a poor start on a torus, whose rim normals nearly share
+    a plane), the axis untilted, the sizes at three places each in their ranges."""
+    centres, _ = _best_spheres(points, mask)
+    starts = []
+    for major in SIZE_STARTS:
+        for minor in SIZE_STARTS:
+            v = np.zeros((len(points), 7))
+            v[:, 2:4] = centres[:, 1:3]
+            v[:, 4] = centres[:, 0]
+            v[:, 5], v[:, 6] = major, minor
+            starts.append(v)
+    return _levenberg_marquardt(np.stack(starts, axis=1), points, mask, "torus", 1.0)
+
+
+def _judged(record) -> np.ndarray | None:
+    """A grasp's contact points where it has enough of them (``MIN_POINTS`` points on
+    ``MIN_LINKS`` links) for a verdict, else None."""
+    points = np.asarray(getattr(record, "contact_position", ()), dtype=float).reshape(-1, 3)
+    if len(points) >= MIN_POINTS and len(link_contacts(record)[0]) >= MIN_LINKS:
+        return points
+    return None
+
+
+def torus_residuals(records: Sequence) -> list[float | None]:
+    """How far (m, RMS) each grasp's contact points lie from their best torus (its sizes
+    within the torus's widened ranges); None with too few contacts (as
+    :func:`profile_residuals`)."""
+    out: list[float | None] = [None] * len(records)
+    todo = [(i, p) for i, p in enumerate(map(_judged, records)) if p is not None]
+    if todo:
+        points, mask = padded([p for _, p in todo])
+        for (i, _), value in zip(todo, _torus(points, mask), strict=True):
+            out[i] = float(value)
     return out
 
 
@@ -180,8 +239,8 @@ def profile_residuals(records: Sequence, families: Sequence[str],
     for i, (record, family) in enumerate(zip(records, families, strict=True)):
         if str(family) not in RANGES:
             continue
-        points = np.asarray(getattr(record, "contact_position", ()), dtype=float).reshape(-1, 3)
-        if len(points) >= MIN_POINTS and len(link_contacts(record)[0]) >= MIN_LINKS:
+        points = _judged(record)
+        if points is not None:
             todo.append(i)
             contacts.append(points)
     if not todo:

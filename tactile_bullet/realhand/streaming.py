@@ -328,8 +328,11 @@ class Identifier:
             if over and answer is not None:
                 from ..learn.doubt import doubts
 
+                (instead,) = self.model.contact_names([record], [answer])  # as Model.answers
+                was, answer = (answer, instead) if instead else (None, answer)
                 proba = np.array([[probabilities[c] for c in self._classes]])
-                (doubt,) = doubts(self.model, [record], [answer], proba, self.cross_check)
+                (doubt,) = doubts(self.model, [record], [answer], proba, self.cross_check,
+                                  renamed_from=[was])  # fmt: skip
             doc = {
                 "shape": answer if over else None,
                 "probabilities": probabilities,

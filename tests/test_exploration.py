@@ -48,6 +48,15 @@ def test_a_single_grasp_keeps_its_own_doubt_and_unknown_needs_half_the_grasps():
     assert E.fused_answer(_Model(), answers[:2])["unknown"] is True
 
 
+def test_a_grasp_its_contacts_renamed_fuses_as_the_shape_they_named():
+    """A torus read as a sphere (probabilities for "a"), renamed "b" by its contacts: the fused
+    answer of that one grasp is its own answer, not the classifier's."""
+    renamed = _answer([0.9, 0.08, 0.02]) | {"shape": "b", "renamed_from": "a"}
+    fused = E.fused_answer(_Model(), [renamed])
+    assert fused["shape"] == "b" and fused["posterior"]["b"] > 0.9
+    assert E.fused_answer(_Model(), [_answer([0.9, 0.08, 0.02])])["shape"] == "a"
+
+
 def test_every_planned_pose_is_reachable_from_any_reachable_first_pose():
     for first in (Pose(), Pose((0.015, 0.0, -0.010), math.radians(-25.0)),
                   Pose((-0.005, 0.0, 0.01), math.radians(10.0))):  # fmt: skip

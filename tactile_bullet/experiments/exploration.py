@@ -134,12 +134,20 @@ def grasp_answers(model, records: Sequence[GraspRecord]) -> list[dict[str, Any]]
 
 
 def probabilities(model, answer: Mapping[str, Any]) -> np.ndarray:
-    """An answer's probabilities in the model's class order (uniform where it named none)."""
+    """An answer's probabilities in the model's class order (uniform where it named none).
+    Where the grasp's contacts renamed the classifier's answer (``renamed_from``: they fit no
+    such shape but the one named), the classifier's probability of the shape they reject
+    counts toward the shape they name, so the fused answer of one grasp is that grasp's."""
     classes = [str(c) for c in model.classes]
     probs = answer.get("probabilities") or {}
     if not probs:
         return np.full(len(classes), 1.0 / len(classes))
-    return np.array([float(probs.get(c, 0.0)) for c in classes])
+    out = np.array([float(probs.get(c, 0.0)) for c in classes])
+    rejected, named = answer.get("renamed_from"), answer.get("shape")
+    if rejected in classes and named in classes:
+        out[classes.index(named)] += out[classes.index(rejected)]
+        out[classes.index(rejected)] = 0.0
+    return out
 
 
 def fused_answer(model, answers: Sequence[Mapping[str, Any]],

@@ -36,6 +36,7 @@ from _report import provenance  # first: this checkout ahead of an installed cop
 from tactile_bullet.datasets.dataset import read_records
 from tactile_bullet.experiments.robustness_sets import (
     COLUMNS,
+    FAMILY_OBJECTS,
     NOISE,
     OUT_OF_FAMILY_SETS,
     read_column,
@@ -136,13 +137,13 @@ def _refitted(model, cache: Path, min_points: int, training: str | None):
 def _breakdown(title: str, model, records) -> None:
     """In-family grasps: the share answered unknown by rule, and which ones (right or not)."""
     names, rules, renamed = _answers(model, records)
-    wrong = sum(bool(rule) and r.shape != n for r, n, rule in zip(records, names, rules,
-                                                                   strict=True))  # fmt: skip
-    right = np.mean([r.shape == n for r, n in zip(records, names, strict=True)])
+    truths = [FAMILY_OBJECTS.get(r.shape, r.shape) for r in records]  # a household can: cylinder
+    wrong = sum(bool(rule) and t != n for t, n, rule in zip(truths, names, rules, strict=True))
+    right = np.mean([t == n for t, n in zip(truths, names, strict=True)])
     print(f"{title}: accuracy {100 * right:.1f}%, {renamed} renamed by the contacts; "
           f"{_shares(rules)}; {wrong} of them wrong answers")  # fmt: skip
-    which = Counter((r.shape, n, rule) for r, n, rule in zip(records, names, rules,
-                                                             strict=True) if rule)  # fmt: skip
+    which = Counter((t, n, rule) for t, n, rule in zip(truths, names, rules, strict=True)
+                    if rule)  # fmt: skip
     for (truth, answer, rule), k in which.most_common():
         print(f"  {k} x {truth} answered {answer}: {rule}")
 

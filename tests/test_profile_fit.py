@@ -15,7 +15,12 @@ import pytest
 
 from tactile_bullet.perception import contact_check
 from tactile_bullet.perception.contact_check import ContactCheck
-from tactile_bullet.perception.profile_fit import MIN_POINTS, profile_residuals, torus_residuals
+from tactile_bullet.perception.profile_fit import (
+    MIN_POINTS,
+    profile_residuals,
+    torus_fit,
+    torus_residuals,
+)
 
 FINGERS = (-0.033, -0.011, 0.011, 0.033)
 
@@ -165,6 +170,15 @@ def test_a_torus_read_as_a_sphere_lies_on_a_torus_and_off_every_sphere():
     record = _record(torus)
     assert torus_residuals([record])[0] < 2e-4
     assert profile_residuals([record], ["sphere"])[0] > 1e-3  # the default's floor
+
+
+def test_the_best_torus_is_the_torus_the_points_came_from():
+    fit = torus_fit(_record(torus))
+    assert fit["major_radius"] == pytest.approx(0.048, abs=1e-3)
+    assert fit["minor_radius"] == pytest.approx(0.042, abs=1e-3)
+    assert abs(fit["direction"][0]) > 0.999 and fit["residual"] < 2e-4
+    assert torus_fit(SimpleNamespace(contact_position=np.zeros((3, 3)),
+                                     contact_link=np.array(["a", "b", "c"]))) is None  # fmt: skip
 
 
 def test_an_egg_and_a_prism_lie_off_every_torus():

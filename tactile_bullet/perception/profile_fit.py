@@ -142,9 +142,10 @@ def _fit(points: np.ndarray, mask: np.ndarray, axes: np.ndarray, family: str) ->
     return best
 
 
-def _levenberg_marquardt(v, points, mask, family, sign) -> np.ndarray:
+def _levenberg_marquardt(v, points, mask, family, sign, params: bool = False):
     """RMS distance of each grasp's points from the surface its best start reaches, the
-    Jacobian by forward differences."""
+    Jacobian by forward differences (and, with ``params``, that surface's parameters, g x
+    (5 + sizes), as :func:`_distances` takes them)."""
     pts = points[:, None]
     wm = mask[:, None].astype(float)
     eye = np.eye(v.shape[-1])
@@ -158,8 +159,9 @@ def _levenberg_marquardt(v, points, mask, family, sign) -> np.ndarray:
                         for j in range(v.shape[-1])], axis=-1)  # fmt: skip
         return e, jac
 
-    e_best, _ = minimise(v, terms, wm, KNEE, ITERATIONS)
-    return np.sqrt((e_best**2).sum(axis=1) / np.maximum(mask.sum(axis=1), 1))
+    e_best, theta = minimise(v, terms, wm, KNEE, ITERATIONS)
+    rms = np.sqrt((e_best**2).sum(axis=1) / np.maximum(mask.sum(axis=1), 1))
+    return (rms, theta) if params else rms
 
 
 def _best_spheres(points: np.ndarray, mask: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -188,7 +190,7 @@ def _sphere(points: np.ndarray, mask: np.ndarray) -> np.ndarray:
     return out
 
 
-def _torus(points: np.ndarray, mask: np.ndarray) -> np.ndarray:
+def _torus(points: np.ndarray, mask: np.ndarray, params: bool = False):
     """RMS distance of each grasp's points from its best torus around an axis near the palm's
     x: started at the points' best sphere's centre (a torus grasped round its rim has its
     centre there; the normals' axis is a poor start on a torus, whose rim normals nearly share
@@ -202,7 +204,24 @@ def _torus(points: np.ndarray, mask: np.ndarray) -> np.ndarray:
             v[:, 4] = centres[:, 0]
             v[:, 5], v[:, 6] = major, minor
             starts.append(v)
-    return _levenberg_marquardt(np.stack(starts, axis=1), points, mask, "torus", 1.0)
+    return _levenberg_marquardt(np.stack(starts, axis=1), points, mask, "torus", 1.0, params)
+
+
+def torus_fit(record) -> dict | None:
+    """One grasp's best torus (what :func:`torus_residuals` measures), for pictures: ``point``
+    (where its axis crosses x = 0), ``direction`` (the axis, unit), ``centre`` (along it from
+    ``point``), ``major_radius``, ``minor_radius`` (m) and ``residual`` (m, RMS); None with
+    too few contacts."""
+    points = _judged(record)
+    if points is None:
+        return None
+    rms, theta = _torus(points[None], np.ones((1, len(points)), dtype=bool), params=True)
+    v = theta[0]
+    direction = np.array([1.0, TILT * np.tanh(v[0]), TILT * np.tanh(v[1])])
+    major, minor = (float(x) for x in _sizes(v[5:], "torus"))
+    return {"point": np.array([0.0, v[2], v[3]]), "centre": float(v[4]),
+            "direction": direction / np.linalg.norm(direction), "major_radius": major,
+            "minor_radius": minor, "residual": float(rms[0])}  # fmt: skip
 
 
 def _judged(record) -> np.ndarray | None:

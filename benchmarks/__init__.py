@@ -39,6 +39,8 @@ NEEDS: dict[str, str] = {
     "axis_residual_figure": "a robustness matrix's cache (--cache DIR/data) with its training "
     "and out-of-family sets; seconds",
     "cylinder_cone_fit": "no dataset; simulates four cylinders (seconds)",
+    "torus_sphere_figure": "no dataset; simulates a MuJoCo torus and a Bullet ovoid and writes "
+    "a picture (matplotlib; seconds)",
     "novelty_alternatives": "a full-scale robustness matrix's cache (--cache DIR/data), minutes",
     "shape_fit_equivalence": "git (it loads the shape fit of --ref, default adcd9c0, beside this "
     "one); --data DIR adds a simulated set (e.g. generate --preset thesis), minutes",

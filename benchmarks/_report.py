@@ -59,3 +59,11 @@ def provenance(argv: Sequence[str] | None = None) -> None:
     print(f"command: {command(argv)}")
     print(f"commit: {commit()}")
     print(f"date: {now}", flush=True)
+
+
+def save_figure(fig, out: str | Path) -> None:
+    """Lay ``fig`` out, write it to ``out`` (PNG, 110 dpi, the docs' pictures' resolution) and
+    say where."""
+    fig.tight_layout()
+    fig.savefig(out, dpi=110)
+    print(f"wrote {out}")

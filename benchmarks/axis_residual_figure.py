@@ -24,7 +24,7 @@ from collections import Counter, defaultdict
 from pathlib import Path
 
 import numpy as np
-from _report import provenance  # first: this checkout ahead of an installed copy
+from _report import provenance, save_figure  # first: this checkout ahead of an installed copy
 
 from tactile_bullet.datasets.dataset import read_records
 from tactile_bullet.learn.default import default_model
@@ -108,9 +108,7 @@ def main(argv=None) -> int:
     bottom.set_ylabel("profile residual (mm, RMS)")
     bottom.set_title("Contact points against the named family's best surface (the torus is not "
                      "modelled); black: the default's Bullet threshold", fontsize=9)  # fmt: skip
-    fig.tight_layout()
-    fig.savefig(args.out, dpi=110)
-    print(f"wrote {args.out}")
+    save_figure(fig, args.out)
     return 0
 
 

@@ -18,7 +18,7 @@ from __future__ import annotations
 import argparse
 
 import numpy as np
-from _report import provenance  # first: this checkout ahead of an installed copy
+from _report import provenance, save_figure  # first: this checkout ahead of an installed copy
 
 from tactile_bullet.learn.default import default_model
 from tactile_bullet.learn.doubt import doubts
@@ -98,9 +98,7 @@ def main(argv=None) -> int:
               f"{1000 * torus_rms:.2f} mm (R {1000 * fit['major_radius']:.1f}, r "
               f"{1000 * fit['minor_radius']:.1f}), sphere {1000 * sphere_rms:.2f} mm")  # fmt: skip
     axes[0].set_ylabel("signed distance off the surface (mm)")
-    fig.tight_layout()
-    fig.savefig(args.out, dpi=110)
-    print(f"wrote {args.out}")
+    save_figure(fig, args.out)
     return 0
 
 

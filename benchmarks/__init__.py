@@ -27,6 +27,7 @@ FAST: dict[str, tuple[str, ...]] = {
     "bench_predict": ("--overhead-only",),
     "bench_fit_batch": ("--grasps", "64", "--repeat", "1"),
     "bench_revolution": ("--grasps", "100"),
+    "bench_decision": ("--repeat", "1"),
 }
 """Benchmarks that need no dataset and finish in well under a minute on two cores, with the
 arguments ``python -m benchmarks`` runs them with."""

@@ -95,6 +95,26 @@ def test_the_planner_moves_where_the_hypotheses_differ_and_caches_its_simulation
     assert again["simulated"] == 0 and again["pose"] == decision["pose"]
 
 
+def test_a_decisions_grasps_simulated_on_every_core_are_the_grasps_made_here():
+    """prefetch runs a decision's new hypothesis grasps on forked workers (where it may): each
+    record equals the one simulated in this process, a refused size is no outcome, and a
+    grasp already cached is not simulated again."""
+    from tactile_bullet.sim.grasp import simulate_grasp
+
+    ctl = ControllerSettings(engine="mujoco")
+    jobs = [("sphere", {"radius": r}, Pose((x, 0.0, 0.0)), ctl)
+            for r in (0.04, 0.05) for x in (-0.005, 0.005)]  # fmt: skip
+    cache = E.SimulationCache()
+    cache.prefetch([*jobs, ("sphere", {"radius": 0.5}, Pose(), ctl)])
+    assert cache.simulated == 5
+    for job in jobs:
+        got, want = cache.grasp(*job), simulate_grasp(*job)
+        assert np.array_equal(got.angles, want.angles)
+    assert cache.grasp("sphere", {"radius": 0.5}, Pose(), ctl) is None
+    cache.prefetch(jobs)
+    assert cache.simulated == 5
+
+
 @pytest.mark.slow
 def test_explore_json_has_the_answer_and_every_grasp(capsys, tmp_path):
     plot = tmp_path / "posterior.png"

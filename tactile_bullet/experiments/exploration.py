@@ -18,7 +18,8 @@ fuses the grasps' answers:
   (its fitted sizes, and ``SIZE_STEP`` larger and smaller); the model reads each simulated
   grasp, and the move whose expected posterior entropy is lowest (the largest expected
   information gain) is chosen. Simulations are cached by object and pose, so a second decision
-  on the same object costs only its new poses.
+  on the same object costs only its new poses, and a decision's new ones run on every core
+  (:meth:`SimulationCache.prefetch`).
 
 Poses here are the object's pose relative to the hand (``Pose``), as every grasp takes it; a
 move of the hand by (dx, dz, dalpha) moves the object by the opposite in the hand's frame, and
@@ -255,6 +256,25 @@ def hypotheses(model, grasps: Sequence[Grasp], answer: Mapping[str, Any],
     return out
 
 
+PARALLEL_SIMULATIONS = 4
+"""Fewest new hypothesis grasps a decision simulates on forked workers: a MuJoCo grasp takes
+40-120 ms, starting a forked worker a few ms."""
+
+Job = tuple[str, Mapping[str, float], Pose, ControllerSettings]
+"""One hypothesis grasp to simulate: shape, sizes, pose, controller."""
+
+
+def _simulate(job: Job) -> GraspRecord | None:
+    """The grasp of ``job``; None where the simulator refuses its size or pose (no outcome
+    there)."""
+    from ..sim.grasp import simulate_grasp
+
+    try:
+        return simulate_grasp(*job)
+    except UsageError:
+        return None
+
+
 @dataclass
 class SimulationCache:
     """Simulated hypothesis grasps, by (shape, sizes, pose, controller): a decision reuses
@@ -263,20 +283,51 @@ class SimulationCache:
     records: dict[tuple, GraspRecord] = field(default_factory=dict)
     simulated: int = 0
 
+    @staticmethod
+    def _key(shape: str, params: Mapping[str, float], pose: Pose,
+             controller: ControllerSettings) -> tuple:  # fmt: skip
+        return (shape, tuple(sorted((k, round(v, 5)) for k, v in params.items())),
+                tuple(round(v, 5) for v in pose.offset), round(pose.rotation, 5),
+                controller)  # fmt: skip
+
     def grasp(self, shape: str, params: Mapping[str, float], pose: Pose,
               controller: ControllerSettings) -> GraspRecord | None:  # fmt: skip
-        from ..sim.grasp import simulate_grasp
-
-        key = (shape, tuple(sorted((k, round(v, 5)) for k, v in params.items())),
-               tuple(round(v, 5) for v in pose.offset), round(pose.rotation, 5),
-               controller)  # fmt: skip
+        key = self._key(shape, params, pose, controller)
         if key not in self.records:
-            try:
-                self.records[key] = simulate_grasp(shape, params, pose, controller)
-            except UsageError:  # a size or pose the simulator refuses: no outcome there
-                self.records[key] = None
+            self.records[key] = _simulate((shape, params, pose, controller))
             self.simulated += 1
         return self.records[key]
+
+    def prefetch(self, jobs: Sequence[Job]) -> None:
+        """Simulate every job the cache lacks, over every core this process may use where
+        forking is safe and worth it (``fit_batch.can_fork``, at least
+        :data:`PARALLEL_SIMULATIONS` new grasps), else here: a decision's grasps are
+        independent and deterministic, so each is the one :meth:`grasp` would make."""
+        from ..perception.fit_batch import can_fork, usable_cores
+
+        todo: dict[tuple, Job] = {}
+        for job in jobs:
+            key = self._key(*job)
+            if key not in self.records:
+                todo[key] = job
+        workers = min(usable_cores(), len(todo))
+        done: dict[tuple, GraspRecord | None] = {}
+        if len(todo) >= PARALLEL_SIMULATIONS and workers >= 2 and can_fork():
+            import multiprocessing  # here: a decision that simulates little does not import it
+            from concurrent.futures import ProcessPoolExecutor
+            from concurrent.futures.process import BrokenProcessPool
+
+            pool = ProcessPoolExecutor(workers, mp_context=multiprocessing.get_context("fork"))
+            try:
+                for key, record in zip(todo, pool.map(_simulate, todo.values()), strict=True):
+                    done[key] = record
+            except BrokenProcessPool:  # a worker died (killed, out of memory): the rest here
+                pass
+            finally:
+                pool.shutdown(wait=True, cancel_futures=True)
+        for key, job in todo.items():
+            self.records[key] = done[key] if key in done else _simulate(job)
+            self.simulated += 1
 
 
 def _outcomes(h: Hypothesis, n: int) -> list[dict[str, float]]:
@@ -351,8 +402,11 @@ def plan(grasps: Sequence[Grasp], model, controller: ControllerSettings,
     hyps = hypotheses(model, grasps, fused)
     first = grasps[0].pose
     before = cache.simulated
+    reachable = reachable_moves(first, moves)
+    cache.prefetch([(h.shape, sizes, moved(h.pose, move), controller) for move in reachable
+                    for h in hyps for sizes in _outcomes(h, OUTCOMES)])  # fmt: skip
     gains = {}
-    for move in reachable_moves(first, moves):
+    for move in reachable:
         gains[tuple(move)] = (expected_gain(model, prior, hyps, move, first, controller, cache)
                               if hyps else 0.0)  # fmt: skip
     if not gains:

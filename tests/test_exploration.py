@@ -265,15 +265,20 @@ def test_the_active_protocol_keeps_an_earlier_run(tmp_path, capsys):
     assert "not empty" in err and (out / "active.json").read_text() == "{}"
 
 
-def test_every_hard_object_of_the_active_protocol_is_a_valid_grasp():
+def test_every_hard_object_of_the_active_protocol_is_a_valid_grasp(tmp_path):
     from tactile_bullet.experiments.active import columns
 
-    cols = columns("quick", {"gymnasium": "hand.xml"})
-    assert set(cols) == {"border", "unseen-poses", "gymnasium"}
+    assert "household" not in columns("tiny", {})
+    cols = columns("quick", {"gymnasium": "hand.xml"}, objects=tmp_path)
+    assert set(cols) == {"border", "unseen-poses", "household", "gymnasium"}
     for name, (_controller, objects) in cols.items():
         assert objects, name
-        for _shape, _params, pose in objects:
+        for _shape, _params, pose, *_family in objects:
             E.check_reachable(pose)
+    # the household meshes are scored against the family a person would call them
+    household = cols["household"][1]
+    assert {family for *_, family in household} == {"cylinder", "sphere", "hyperboloid", "cone"}
+    assert all(0.0 <= math.degrees(pose.rotation) <= 25.0 for _, _, pose, _ in household)
     border = cols["border"][1]
     tori = [p for s, p, _ in border if s == "torus"]
     assert all(p["major_radius"] - p["minor_radius"] <= 0.006 for p in tori)  # hole nearly shut

@@ -6,9 +6,11 @@ or unknown), the accuracy reached and the grasps used.
 Its columns are the hard cases of issue 28, each on MuJoCo (a decision is simulated there):
 objects near two families' border (a torus whose tube nearly closes the hole, a hyperboloid
 with a slight waist, a short wide cylinder turned 20 deg), the five shapes at unseen poses
-(offsets to +-10 mm, turned 10-25 deg), and, where ``--other-hand`` names their models, the
-hands written by others. Every strategy grasps the same objects at the same first pose; each
-sequence runs to three grasps, and the fused answer after each is scored.
+(offsets to +-10 mm, turned 10-25 deg), the household meshes a person calls a family (a can,
+a ball, a vase, a paper cup; turned 0-25 deg, as the robustness matrix's household column),
+and, where ``--other-hand`` names their models, the hands written by others. Every strategy
+grasps the same objects at the same first pose; each sequence runs to three grasps, and the
+fused answer after each is scored against the object's family.
 """
 
 from __future__ import annotations
@@ -73,8 +75,34 @@ def posed_objects(n: int, rng: np.random.Generator) -> list[tuple[str, dict, Pos
     return out
 
 
-def columns(scale: str, hands: Mapping[str, str], seed: int = 0) -> dict[str, tuple]:
-    """Column -> (controller, objects)."""
+def household_objects(n: int, rng: np.random.Generator,
+                      folder: Path) -> list[tuple[Any, dict, Pose, str]]:  # fmt: skip
+    """The household meshes a person calls a family (``robustness_sets.FAMILY_OBJECTS``),
+    written to ``folder`` once, each grasped ``n`` times a few mm off centre and turned 0-25
+    deg: (mesh shape, {}, first pose, family)."""
+    from ..objects.examples import OBJECTS, write_object
+    from ..objects.meshes import load_mesh
+    from .robustness_sets import FAMILY_OBJECTS
+
+    folder.mkdir(parents=True, exist_ok=True)
+    out = []
+    for _ in range(n):
+        for name, family in FAMILY_OBJECTS.items():
+            _, ext, unit, _ = OBJECTS[name]
+            path = folder / f"{name}.{ext}"
+            if not path.is_file():
+                write_object(name, folder)
+            pose = Pose((float(rng.uniform(-0.008, 0.008)), 0.0, float(rng.uniform(-0.005, 0.005))),
+                        math.radians(float(rng.uniform(0.0, 25.0))))  # fmt: skip
+            out.append((load_mesh(path, unit), {}, pose, family))
+    return out
+
+
+def columns(scale: str, hands: Mapping[str, str], seed: int = 0,
+            objects: Path | None = None) -> dict[str, tuple]:  # fmt: skip
+    """Column -> (controller, objects), each object (shape, sizes, first pose[, family: the
+    answer that is right, where the shape is a mesh]). ``objects``: the folder the household
+    meshes are written to (no household column without it)."""
     from ..datasets.sweeps import geometry_ok
 
     n = SCALES[scale]
@@ -84,10 +112,15 @@ def columns(scale: str, hands: Mapping[str, str], seed: int = 0) -> dict[str, tu
         "border": (mujoco, border_objects(n, rng)),
         "unseen-poses": (mujoco, posed_objects(n, rng)),
     }
+    out = {k: (c, [o for o in objs if geometry_ok(o[0], o[1])]) for k, (c, objs) in out.items()}
+    if objects is not None:
+        out["household"] = (mujoco, household_objects(n, np.random.default_rng(seed + 2),
+                                                      objects))  # fmt: skip
     for name, path in sorted(hands.items()):
         ctl = replace(mujoco, hand_model=str(Path(path).resolve()))
-        out[name] = (ctl, posed_objects(n, np.random.default_rng(seed + 1)))
-    return {k: (c, [o for o in objs if geometry_ok(o[0], o[1])]) for k, (c, objs) in out.items()}
+        out[name] = (ctl, [o for o in posed_objects(n, np.random.default_rng(seed + 1))
+                           if geometry_ok(o[0], o[1])])  # fmt: skip
+    return out
 
 
 def run_active(
@@ -113,11 +146,13 @@ def run_active(
     started = time.perf_counter()
     rows = []
     decisions = []
-    for column, (controller, objects) in columns(scale, hands or {}, seed).items():
+    for column, (controller, objects) in columns(scale, hands or {}, seed,
+                                                 out / "objects").items():  # fmt: skip
         for strategy in STRATEGIES:
             after = np.zeros((len(objects), GRASPS), bool)
             stop_right, stop_used = [], []
-            for i, (shape, params, first) in enumerate(objects):
+            for i, (shape, params, first, *family) in enumerate(objects):
+                truth = family[0] if family else shape
                 cache = SimulationCache()
                 how, _, fusion = strategy.partition("+")
                 doc = explore(shape, params, first, controller, max_grasps=GRASPS, model=model,
@@ -126,9 +161,9 @@ def run_active(
                 decisions += [d["seconds"] for d in doc["decisions"]]
                 fused = doc["fused"]
                 for k in range(GRASPS):
-                    after[i, k] = fused[min(k, len(fused) - 1)]["shape"] == shape
+                    after[i, k] = fused[min(k, len(fused) - 1)]["shape"] == truth
                 stop = next((k for k, f in enumerate(fused) if settled(f)), len(fused) - 1)
-                stop_right.append(fused[stop]["shape"] == shape)
+                stop_right.append(fused[stop]["shape"] == truth)
                 stop_used.append(stop + 1)
             row = {"column": column, "strategy": strategy, "objects": len(objects),
                    "after": [float(v) for v in after.mean(axis=0)],

@@ -205,11 +205,10 @@ def score_matrix(
             xt = np.asarray(desc.transform(records), float)
             pred = np.asarray(fitted.estimator.predict(xt)).astype(str)
             if fitted.axis is not None:  # a torus read as a sphere, named by its contacts
-                pred = renamed(pred, [n if n in classes else None for n in
-                                      fitted.axis.contact_names(
-                                          records, pred, lambda recs: _residuals(recs, axis_cache),
-                                          lambda recs, names: _profiles(recs, names, axis_cache),
-                                          lambda recs: _tori(recs, axis_cache))])  # fmt: skip
+                pred = renamed(pred, fitted.axis.contact_names(
+                    records, pred, lambda recs: _residuals(recs, axis_cache),
+                    lambda recs, names: _profiles(recs, names, axis_cache),
+                    lambda recs: _tori(recs, axis_cache)))  # fmt: skip
             proba = np.asarray(fitted.estimator.predict_proba(xt), float)
             m = margins(proba, np.array([classes.index(p) for p in pred]))[0]
             flags = flagged(m, fitted.calibration.get("margin"))
@@ -270,7 +269,7 @@ def _fit(cand: Candidate, x: np.ndarray, y: np.ndarray, train, seed: int,
 
 def _profiles(records, names, cache: dict) -> list[float | None]:
     """Each record's profile residual for the family named, computed once a run per record and
-    family (batched; keyed as :func:`_residuals` keys)."""
+    family (batched; keyed as :func:`_once` keys, by the family's name)."""
     from ..perception.profile_fit import profile_residuals
 
     todo = {}
@@ -285,27 +284,28 @@ def _profiles(records, names, cache: dict) -> list[float | None]:
 
 
 def _tori(records, cache: dict) -> list[float | None]:
-    """Each record's torus residual (``profile_fit.torus_residuals``), computed once a run per
-    record (keyed as :func:`_profiles` keys, under the name ``torus-fit``)."""
+    """Each record's torus residual (``profile_fit.torus_residuals``), computed once a run."""
     from ..perception.profile_fit import torus_residuals
 
-    todo = {id(r.contact_position): r for r in records
-            if (id(r.contact_position), "torus-fit") not in cache}  # fmt: skip
-    for (key, r), value in zip(todo.items(), torus_residuals(list(todo.values())), strict=True):
-        cache[(key, "torus-fit")] = (r.contact_position, value)
-    return [cache[(id(r.contact_position), "torus-fit")][1] for r in records]
+    return _once(records, cache, "torus-fit", torus_residuals)
 
 
-def _residuals(records, cache: dict[int, tuple]) -> list[float | None]:
-    """Each record's axis residual, computed once a run (batched): keyed by its contacts
-    array, which every candidate's copy of a test set shares (the array is kept in the cache,
-    so its id is not reused)."""
+def _residuals(records, cache: dict) -> list[float | None]:
+    """Each record's axis residual (``revolution.axis_residuals``), computed once a run."""
     from ..perception.revolution import axis_residuals
 
-    todo = {id(r.contact_position): r for r in records if id(r.contact_position) not in cache}
-    for (key, r), value in zip(todo.items(), axis_residuals(list(todo.values())), strict=True):
-        cache[key] = (r.contact_position, value)
-    return [cache[id(r.contact_position)][1] for r in records]
+    return _once(records, cache, "axis", axis_residuals)
+
+
+def _once(records, cache: dict, what: str, compute) -> list[float | None]:
+    """``compute`` (batched) of each record not yet in ``cache``, then every record's value:
+    keyed by its contacts array, which every candidate's copy of a test set shares (the array
+    is kept in the cache, so its id is not reused), and ``what`` was computed."""
+    todo = {id(r.contact_position): r for r in records
+            if (id(r.contact_position), what) not in cache}  # fmt: skip
+    for (key, r), value in zip(todo.items(), compute(list(todo.values())), strict=True):
+        cache[(key, what)] = (r.contact_position, value)
+    return [cache[(id(r.contact_position), what)][1] for r in records]
 
 
 def _cannot_read(cand: Candidate, records: Sequence[GraspRecord]) -> str | None:

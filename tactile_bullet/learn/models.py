@@ -132,11 +132,10 @@ class Model:
         """For each of the classifier's answers, the family the grasp's contacts name instead
         (a torus read as a sphere:
         :meth:`~tactile_bullet.perception.contact_check.ContactCheck.contact_names`), or None;
-        all None without a contact check or for a class the model does not know."""
+        all None without a contact check."""
         if self.axis is None or not len(records):
             return [None] * len(records)
-        known = set(self.classes)
-        return [n if n in known else None for n in self.axis.contact_names(records, names)]
+        return self.axis.contact_names(records, names)
 
     def predict_proba_records(self, records: Sequence) -> np.ndarray:
         """(n, n_classes) probabilities; columns follow ``classes``."""

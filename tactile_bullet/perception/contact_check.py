@@ -220,7 +220,8 @@ class ContactCheck:
         ``sphere`` whose points the profile rule finds off every sphere, where a torus explains
         them at least as closely as a sphere must to be accepted (its residual, from
         :func:`~.profile_fit.torus_residuals` or the cached ``tori``, at most the engine's
-        sphere threshold) and the normals pass the torus's axis threshold. A sphere's meridian
+        sphere threshold) and the normals pass the torus's axis threshold (which only a check set
+        on tori has, so only a model that knows the torus renames). A sphere's meridian
         is an arc centred on the axis, a torus's rim one centred off it, so a torus whose tube
         nearly closes its hole reads as a sphere from the angles (docs/robustness.md, the
         ninth replicate's declaration); no other pair is renamed (a hyperboloid's profile fits

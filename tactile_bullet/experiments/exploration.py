@@ -303,30 +303,18 @@ class SimulationCache:
         forking is safe and worth it (``fit_batch.can_fork``, at least
         :data:`PARALLEL_SIMULATIONS` new grasps), else here: a decision's grasps are
         independent and deterministic, so each is the one :meth:`grasp` would make."""
-        from ..perception.fit_batch import can_fork, usable_cores
+        from ..perception.fit_batch import on_cores
 
         todo: dict[tuple, Job] = {}
         for job in jobs:
             key = self._key(*job)
             if key not in self.records:
                 todo[key] = job
-        workers = min(usable_cores(), len(todo))
-        done: dict[tuple, GraspRecord | None] = {}
-        if len(todo) >= PARALLEL_SIMULATIONS and workers >= 2 and can_fork():
-            import multiprocessing  # here: a decision that simulates little does not import it
-            from concurrent.futures import ProcessPoolExecutor
-            from concurrent.futures.process import BrokenProcessPool
-
-            pool = ProcessPoolExecutor(workers, mp_context=multiprocessing.get_context("fork"))
-            try:
-                for key, record in zip(todo, pool.map(_simulate, todo.values()), strict=True):
-                    done[key] = record
-            except BrokenProcessPool:  # a worker died (killed, out of memory): the rest here
-                pass
-            finally:
-                pool.shutdown(wait=True, cancel_futures=True)
-        for key, job in todo.items():
-            self.records[key] = done[key] if key in done else _simulate(job)
+        keys, pending = list(todo), list(todo.values())
+        found = on_cores(lambda index: [_simulate(pending[i]) for i in index], len(pending),
+                         PARALLEL_SIMULATIONS, 1)  # fmt: skip
+        for key, record in zip(keys, found, strict=True):
+            self.records[key] = record
             self.simulated += 1
 
 

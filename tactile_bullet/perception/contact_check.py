@@ -42,48 +42,16 @@ MIN_PARALLEL = 64
 """Fewest grasps worth forking workers for (a verdict is ~0.5-5 ms)."""
 CHUNK = 32
 """Grasps per task handed to a worker: each task is one batched fit."""
-_JOB: Callable[[list[int]], list] | None = None
-"""The task of the batch being split, set before the workers fork (they inherit it, so the
-records are not pickled)."""
-
-
-def _run_chunk(index: list[int]) -> list:
-    return _JOB(index)
 
 
 def _on_cores(task: Callable[[list[int]], list], n: int) -> list:
-    """``task(range(n))``, its n results computed in chunks over forked workers where that is
-    safe and worth it (as the shape fits are: ``fit_batch``), else here. A result equals the
-    one computed here up to rounding: a batch is padded to its largest grasp, which moves the
-    last bits of a fit (at most 0.3 um on the thesis preset's 1,143 grasps)."""
-    from .fit_batch import can_fork, usable_cores
+    """``task(range(n))`` over every usable core in chunks of :data:`CHUNK` (from
+    :data:`MIN_PARALLEL` grasps: ``fit_batch.on_cores``). A result equals the one computed
+    here up to rounding: a batch is padded to its largest grasp, which moves the last bits of a
+    fit (at most 0.3 um on the thesis preset's 1,143 grasps)."""
+    from .fit_batch import on_cores
 
-    global _JOB
-    workers = min(usable_cores(), -(-n // CHUNK))
-    if n < MIN_PARALLEL or workers < 2 or not can_fork():
-        return task(list(range(n)))
-    import multiprocessing  # here: a single answer does not import them
-    from concurrent.futures import ProcessPoolExecutor
-    from concurrent.futures.process import BrokenProcessPool
-
-    chunks = [list(range(k, min(k + CHUNK, n))) for k in range(0, n, CHUNK)]
-    out: list = [None] * n
-    done = [False] * n
-    _JOB = task
-    pool = ProcessPoolExecutor(workers, mp_context=multiprocessing.get_context("fork"))
-    try:
-        for chunk, found in zip(chunks, pool.map(_run_chunk, chunks), strict=True):
-            for i, value in zip(chunk, found, strict=True):
-                out[i], done[i] = value, True
-    except BrokenProcessPool:  # a worker died (killed, out of memory): the rest here
-        pass
-    finally:
-        _JOB = None
-        pool.shutdown(wait=True, cancel_futures=True)
-    todo = [i for i in range(n) if not done[i]]
-    for i, value in zip(todo, task(todo) if todo else [], strict=True):
-        out[i] = value
-    return out
+    return on_cores(task, n, MIN_PARALLEL, CHUNK)
 
 
 def sensed(record) -> bool:

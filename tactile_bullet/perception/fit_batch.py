@@ -8,9 +8,10 @@ would compute; each is kept in :mod:`.shape_fit`'s in-memory cache, so the code 
 them one by one afterwards (``predict`` then ``predict_proba``, the calibration's folds) reads
 them back instead of fitting again.
 
-Workers are only forked where that is safe and worth it: on Linux, from a process running no
-other thread and not itself a pool's daemon worker, for at least
-:data:`MIN_PARALLEL` fits not already cached. Elsewhere the fits run here, as before.
+:func:`on_cores` splits any such batch the same way (the contact check's verdicts, a
+decision's simulated grasps). Workers are only forked where that is safe and worth it: on
+Linux, from a process running no other thread and not itself a pool's daemon worker, for at
+least :data:`MIN_PARALLEL` fits not already cached. Elsewhere the fits run here, as before.
 """
 
 from __future__ import annotations
@@ -18,7 +19,7 @@ from __future__ import annotations
 import os
 import sys
 import threading
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 
 import numpy as np
 
@@ -59,6 +60,49 @@ def can_fork() -> bool:
         and threading.active_count() == 1
         and not multiprocessing.current_process().daemon
     )
+
+
+_TASK: Callable[[list[int]], list] | None = None
+"""The task :func:`on_cores` is splitting, set before the workers fork (they inherit it, so
+its inputs are not pickled)."""
+
+
+def _run_task(index: list[int]) -> list:
+    return _TASK(index)
+
+
+def on_cores(task: Callable[[list[int]], list], n: int, least: int, chunk: int) -> list:
+    """``task(range(n))``: its n results computed ``chunk`` at a time on forked workers, one
+    per usable core, where that is safe (:func:`can_fork`) and worth it (``n`` at least
+    ``least``), else here in one call. A chunk a dead worker (killed, out of memory) left
+    undone is computed here. The contact check's verdicts and a decision's simulated grasps
+    are split so."""
+    global _TASK
+    workers = min(usable_cores(), -(-n // chunk))
+    if n < least or workers < 2 or not can_fork():
+        return task(list(range(n)))
+    import multiprocessing  # here: a single answer does not import them
+    from concurrent.futures import ProcessPoolExecutor
+    from concurrent.futures.process import BrokenProcessPool
+
+    chunks = [list(range(k, min(k + chunk, n))) for k in range(0, n, chunk)]
+    out: list = [None] * n
+    done = [False] * n
+    _TASK = task
+    pool = ProcessPoolExecutor(workers, mp_context=multiprocessing.get_context("fork"))
+    try:
+        for part, found in zip(chunks, pool.map(_run_task, chunks), strict=True):
+            for i, value in zip(part, found, strict=True):
+                out[i], done[i] = value, True
+    except BrokenProcessPool:
+        pass
+    finally:
+        _TASK = None
+        pool.shutdown(wait=True, cancel_futures=True)
+    todo = [i for i in range(n) if not done[i]]
+    for i, value in zip(todo, task(todo) if todo else [], strict=True):
+        out[i] = value
+    return out
 
 
 def _fit_chunk(rows: np.ndarray) -> list[ShapeFit]:

@@ -23,9 +23,8 @@ from _report import provenance, save_figure  # first: this checkout ahead of an 
 from tactile_bullet.learn.default import default_model
 from tactile_bullet.learn.doubt import doubts
 from tactile_bullet.perception.profile_fit import (
-    RANGES,
-    SLACK,
     profile_residuals,
+    sphere_offsets,
     torus_fit,
     torus_residuals,
 )
@@ -37,27 +36,6 @@ GRASPS = (
      "mujoco"),
     ("Bullet ovoid (no family)", "ovoid", {}, "bullet"),
 )  # fmt: skip
-
-
-def _off_torus(points: np.ndarray, fit: dict) -> tuple[np.ndarray, np.ndarray]:
-    """(s along the fitted torus's axis from its centre, signed distance off its surface)."""
-    d = fit["direction"]
-    q = points - fit["point"]
-    along = q @ d
-    rho = np.linalg.norm(q - along[:, None] * d, axis=1)
-    s = along - fit["centre"]
-    return s, np.hypot(rho - fit["major_radius"], s) - fit["minor_radius"]
-
-
-def _off_sphere(points: np.ndarray) -> np.ndarray:
-    """Signed distance of ``points`` off their algebraic best sphere, its radius held to the
-    sphere family's widened range (as the profile rule fits it)."""
-    a = np.c_[2.0 * points, np.ones(len(points))]
-    sol = np.linalg.lstsq(a, (points**2).sum(axis=1), rcond=None)[0]
-    lo, hi = RANGES["sphere"][0]
-    pad = SLACK * (hi - lo)
-    radius = float(np.clip(np.sqrt(max(sol[3] + sol[:3] @ sol[:3], 0.0)), lo - pad, hi + pad))
-    return np.linalg.norm(points - sol[:3], axis=1) - radius
 
 
 def main(argv=None) -> int:
@@ -80,11 +58,11 @@ def main(argv=None) -> int:
         fit = torus_fit(record)
         (sphere_rms,) = profile_residuals([record], ["sphere"])
         (torus_rms,) = torus_residuals([record])
-        s, off = _off_torus(points, fit)
+        s, off = fit["along"], fit["off"]
         ax.axhspan(-1000 * limit, 1000 * limit, color="0.9", label="the sphere's threshold")
         ax.scatter(1000 * s, 1000 * off, color="tab:green", s=22, zorder=3,
                    label=f"off the best torus ({1000 * torus_rms:.2f} mm RMS)")  # fmt: skip
-        ax.scatter(1000 * s, 1000 * _off_sphere(points), color="tab:red", marker="x", s=28,
+        ax.scatter(1000 * s, 1000 * sphere_offsets(record), color="tab:red", marker="x", s=28,
                    zorder=3, label=f"off the best sphere ({1000 * sphere_rms:.2f} mm RMS)")
         (doubt,) = doubts(model, [record], [str(names[0])], None, cross_check=False)
         answer = str(names[0]) + (f" (the classifier: {was[0]})" if was[0] else "") + (

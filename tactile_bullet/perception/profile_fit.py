@@ -176,18 +176,29 @@ def _best_spheres(points: np.ndarray, mask: np.ndarray) -> tuple[np.ndarray, np.
     return centres, radii
 
 
-def _sphere(points: np.ndarray, mask: np.ndarray) -> np.ndarray:
-    """RMS distance of each grasp's points from its algebraic best sphere (radius held to the
+def _sphere_offsets(points: np.ndarray, mask: np.ndarray) -> list[np.ndarray]:
+    """Each grasp's points' signed distances off its algebraic best sphere (radius held to the
     family's widened range)."""
     lo, hi = RANGES["sphere"][0]
     pad = SLACK * (hi - lo)
     centres, radii = _best_spheres(points, mask)
-    out = np.zeros(len(points))
-    for i in range(len(points)):
-        x = points[i][mask[i]]
-        radius = np.clip(radii[i], lo - pad, hi + pad)
-        out[i] = np.sqrt(np.mean((np.linalg.norm(x - centres[i], axis=1) - radius) ** 2))
-    return out
+    return [np.linalg.norm(points[i][mask[i]] - centres[i], axis=1)
+            - np.clip(radii[i], lo - pad, hi + pad) for i in range(len(points))]  # fmt: skip
+
+
+def _sphere(points: np.ndarray, mask: np.ndarray) -> np.ndarray:
+    """RMS distance of each grasp's points from its algebraic best sphere (radius held to the
+    family's widened range)."""
+    return np.array([np.sqrt(np.mean(off**2)) for off in _sphere_offsets(points, mask)])
+
+
+def sphere_offsets(record) -> np.ndarray | None:
+    """One grasp's contact points' signed distances (m) off their best sphere, as the profile
+    rule fits it (for pictures); None with too few contacts."""
+    points = _judged(record)
+    if points is None:
+        return None
+    return _sphere_offsets(points[None], np.ones((1, len(points)), dtype=bool))[0]
 
 
 def _torus(points: np.ndarray, mask: np.ndarray, params: bool = False):
@@ -210,8 +221,9 @@ def _torus(points: np.ndarray, mask: np.ndarray, params: bool = False):
 def torus_fit(record) -> dict | None:
     """One grasp's best torus (what :func:`torus_residuals` measures), for pictures: ``point``
     (where its axis crosses x = 0), ``direction`` (the axis, unit), ``centre`` (along it from
-    ``point``), ``major_radius``, ``minor_radius`` (m) and ``residual`` (m, RMS); None with
-    too few contacts."""
+    ``point``), ``major_radius``, ``minor_radius`` (m), ``residual`` (m, RMS), and for each
+    contact point ``along`` (m, along the axis from the centre) and ``off`` (m, signed, off
+    the surface); None with too few contacts."""
     points = _judged(record)
     if points is None:
         return None
@@ -219,9 +231,14 @@ def torus_fit(record) -> dict | None:
     v = theta[0]
     direction = np.array([1.0, TILT * np.tanh(v[0]), TILT * np.tanh(v[1])])
     major, minor = (float(x) for x in _sizes(v[5:], "torus"))
-    return {"point": np.array([0.0, v[2], v[3]]), "centre": float(v[4]),
-            "direction": direction / np.linalg.norm(direction), "major_radius": major,
-            "minor_radius": minor, "residual": float(rms[0])}  # fmt: skip
+    point, direction = np.array([0.0, v[2], v[3]]), direction / np.linalg.norm(direction)
+    q = points - point
+    along = q @ direction
+    rho = np.linalg.norm(q - along[:, None] * direction, axis=1)
+    s = along - v[4]
+    return {"point": point, "centre": float(v[4]), "direction": direction,
+            "major_radius": major, "minor_radius": minor, "residual": float(rms[0]),
+            "along": s, "off": np.hypot(rho - major, s) - minor}  # fmt: skip
 
 
 def _judged(record) -> np.ndarray | None:

@@ -40,6 +40,8 @@ NEEDS: dict[str, str] = {
     "axis_residual_figure": "a robustness matrix's cache (--cache DIR/data) with its training "
     "and out-of-family sets; seconds",
     "cylinder_cone_fit": "no dataset; simulates four cylinders (seconds)",
+    "active_flips": "no dataset; explores the active protocol's objects (about 2 minutes for "
+    "border and unseen-poses at full scale)",
     "torus_rule_design": "two or more full-scale robustness matrix runs' --out folders with "
     "their caches; about a minute",
     "torus_sphere_figure": "no dataset; simulates a MuJoCo torus and a Bullet ovoid and writes "

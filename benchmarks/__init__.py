@@ -42,6 +42,8 @@ NEEDS: dict[str, str] = {
     "cylinder_cone_fit": "no dataset; simulates four cylinders (seconds)",
     "active_flips": "no dataset; explores the active protocol's objects (about 2 minutes for "
     "border and unseen-poses at full scale)",
+    "active_revisit": "no dataset; explores the active protocol's objects twice, with and "
+    "without the no-revisit rule (about 10 minutes at full scale with both other hands)",
     "torus_rule_design": "two or more full-scale robustness matrix runs' --out folders with "
     "their caches; about a minute",
     "torus_sphere_figure": "no dataset; simulates a MuJoCo torus and a Bullet ovoid and writes "

@@ -70,6 +70,18 @@ def test_every_planned_pose_is_reachable_from_any_reachable_first_pose():
         E.check_reachable(Pose(rotation=math.radians(30.0)))
 
 
+def test_a_pose_already_grasped_is_no_candidate_until_every_one_was():
+    first = Pose((0.005, 0.0, 0.0), math.radians(10.0))
+    moves = E.reachable_moves(first)
+    second = E.moved(first, (0.0, 0.0, 20.0))
+    assert E.move_of(first, second) == pytest.approx((0.0, 0.0, 20.0))
+    left = E.unvisited(moves, first, [first, second])
+    assert (0.0, 0.0, 0.0) not in left and (0.0, 0.0, 20.0) not in left
+    assert set(left) == set(moves) - {(0.0, 0.0, 0.0), (0.0, 0.0, 20.0)}
+    every = [E.moved(first, m) for m in moves]
+    assert E.unvisited(moves, first, every) == moves  # nothing new left: all stay candidates
+
+
 @pytest.mark.slow
 def test_the_planner_moves_where_the_hypotheses_differ_and_caches_its_simulations():
     """A hyperboloid with a slight waist, grasped off centre, reads as a cylinder or a
@@ -93,6 +105,27 @@ def test_the_planner_moves_where_the_hypotheses_differ_and_caches_its_simulation
     assert decision["simulated"] == len(decision["gains"]) * len(names)
     again = E.plan([E.Grasp(record, first)], default_model(), ctl, cache=cache)
     assert again["simulated"] == 0 and again["pose"] == decision["pose"]
+
+
+@pytest.mark.slow
+def test_the_planner_can_leave_out_the_poses_already_grasped(monkeypatch):
+    """With ``AVOID_VISITED`` (off by default: docs/exploration.md, judged and reverted), a
+    third decision chooses neither the first pose nor the second, and weighs neither move."""
+    from tactile_bullet.learn.default import default_model
+    from tactile_bullet.sim.grasp import simulate_grasp
+
+    monkeypatch.setattr(E, "AVOID_VISITED", True)
+    ctl, first, size = ControllerSettings(engine="mujoco"), Pose((0.008, 0.0, 0.0)), {
+        "waist_radius": 0.035}  # fmt: skip
+    grasps = [E.Grasp(simulate_grasp("hyperboloid", size, first, ctl), first)]
+    cache = E.SimulationCache()
+    decision = E.plan(grasps, default_model(), ctl, cache=cache)
+    assert (0.0, 0.0, 0.0) not in decision["gains"]
+    second = decision["pose"]
+    grasps.append(E.Grasp(simulate_grasp("hyperboloid", size, second, ctl), second))
+    third = E.plan(grasps, default_model(), ctl, cache=cache)
+    assert third["pose"] not in (first, second)
+    assert not {(0.0, 0.0, 0.0), decision["move"]} & set(third["gains"])
 
 
 def test_a_decisions_grasps_simulated_on_every_core_are_the_grasps_made_here():

@@ -132,7 +132,6 @@ def run_active(
 ) -> dict[str, Any]:
     """Run every strategy on every column's objects; write ``active.json`` and ``table.md``."""
     from ..learn.default import default_model
-    from .exploration import SimulationCache, explore, settled
     from .reports import write_json, write_text_atomic
 
     if scale not in SCALES:
@@ -149,26 +148,9 @@ def run_active(
     for column, (controller, objects) in columns(scale, hands or {}, seed,
                                                  out / "objects").items():  # fmt: skip
         for strategy in STRATEGIES:
-            after = np.zeros((len(objects), GRASPS), bool)
-            stop_right, stop_used = [], []
-            for i, (shape, params, first, *family) in enumerate(objects):
-                truth = family[0] if family else shape
-                cache = SimulationCache()
-                how, _, fusion = strategy.partition("+")
-                doc = explore(shape, params, first, controller, max_grasps=GRASPS, model=model,
-                              strategy=how, seed=seed + i, cache=cache,
-                              until_settled=False, fusion=fusion or "model")  # fmt: skip
-                decisions += [d["seconds"] for d in doc["decisions"]]
-                fused = doc["fused"]
-                for k in range(GRASPS):
-                    after[i, k] = fused[min(k, len(fused) - 1)]["shape"] == truth
-                stop = next((k for k, f in enumerate(fused) if settled(f)), len(fused) - 1)
-                stop_right.append(fused[stop]["shape"] == truth)
-                stop_used.append(stop + 1)
-            row = {"column": column, "strategy": strategy, "objects": len(objects),
-                   "after": [float(v) for v in after.mean(axis=0)],
-                   "with_stopping": float(np.mean(stop_right)),
-                   "mean_grasps": float(np.mean(stop_used))}  # fmt: skip
+            row, seconds = score_column(objects, controller, model, strategy, seed)
+            row = {"column": column, **row}
+            decisions += seconds
             rows.append(row)
             say(f"{column} {strategy}: after 1/2/3 grasps "
                 + "/".join(f"{100 * v:.0f}" for v in row["after"])
@@ -182,6 +164,36 @@ def run_active(
     write_json(out / "active.json", doc)
     write_text_atomic(out / "table.md", table_text(rows))
     return doc
+
+
+def score_column(objects: Sequence[tuple], controller: ControllerSettings, model,
+                 strategy: str, seed: int) -> tuple[dict[str, Any], list[float]]:
+    """One strategy (``planned``, ``random``, ``repeat``, each optionally ``+simulated``) on one
+    column's objects, each explored to ``GRASPS`` grasps: its row (``strategy``, ``objects``,
+    ``after``: the share right after 1..GRASPS grasps, ``with_stopping``, ``mean_grasps``,
+    ``right``: per object, right after each count) and each planning decision's seconds."""
+    from .exploration import SimulationCache, explore, settled
+
+    after = np.zeros((len(objects), GRASPS), bool)
+    stop_right, stop_used, seconds = [], [], []
+    how, _, fusion = strategy.partition("+")
+    for i, (shape, params, first, *family) in enumerate(objects):
+        truth = family[0] if family else shape
+        doc = explore(shape, params, first, controller, max_grasps=GRASPS, model=model,
+                      strategy=how, seed=seed + i, cache=SimulationCache(),
+                      until_settled=False, fusion=fusion or "model")  # fmt: skip
+        seconds += [d["seconds"] for d in doc["decisions"]]
+        fused = doc["fused"]
+        for k in range(GRASPS):
+            after[i, k] = fused[min(k, len(fused) - 1)]["shape"] == truth
+        stop = next((k for k, f in enumerate(fused) if settled(f)), len(fused) - 1)
+        stop_right.append(fused[stop]["shape"] == truth)
+        stop_used.append(stop + 1)
+    row = {"strategy": strategy, "objects": len(objects),
+           "after": [float(v) for v in after.mean(axis=0)],
+           "with_stopping": float(np.mean(stop_right)),
+           "mean_grasps": float(np.mean(stop_used))}  # fmt: skip
+    return row | {"right": after.tolist(), "stop_right": stop_right}, seconds
 
 
 def table_text(rows: Sequence[Mapping[str, Any]]) -> str:

@@ -60,6 +60,12 @@ SIZE_STEP = 0.08
 OUTCOMES = 1
 """Simulated outcomes per hypothesis and move (fitted sizes, then larger, then smaller): one
 keeps a decision near a second on MuJoCo (docs/exploration.md)."""
+AVOID_VISITED = False
+"""Leave out of the planner's candidates every move to a pose already grasped (a grasp there
+repeats what was read, while the expected gain counts it as new evidence). Off: declared and
+judged on seed 2 of the ``active`` protocol, it gained no object after three grasps and lost
+one with the stopping rule (docs/exploration.md); ``benchmarks/active_revisit.py`` turns it
+on to reproduce that."""
 
 
 @dataclass(frozen=True)
@@ -87,6 +93,24 @@ def moved(pose: Pose, move: Sequence[float]) -> Pose:
     """``pose`` with a move (dx m, dz m, dalpha deg) added."""
     x, y, z = pose.offset
     return Pose((x + move[0], y, z + move[1]), pose.rotation + math.radians(move[2]))
+
+
+def move_of(first: Pose, pose: Pose) -> tuple[float, float, float]:
+    """The move (dx m, dz m, dalpha deg) that takes ``first`` to ``pose`` (:func:`moved`'s
+    inverse)."""
+    return (pose.offset[0] - first.offset[0], pose.offset[2] - first.offset[2],
+            math.degrees(pose.rotation - first.rotation))  # fmt: skip
+
+
+def unvisited(candidates: Sequence[Sequence[float]], first: Pose,
+              grasped: Sequence[Pose]) -> list[tuple[float, float, float]]:
+    """The candidate moves whose pose no grasp was made at (within 1 um and 1e-6 deg); all of
+    them where every one was."""
+    done = np.array([move_of(first, p) for p in grasped], float).reshape(-1, 3)
+    tol = np.array([1e-6, 1e-6, 1e-6])
+    left = [tuple(m) for m in candidates
+            if not np.any(np.all(np.abs(done - np.asarray(m, float)) <= tol, axis=1))]
+    return left or [tuple(m) for m in candidates]
 
 
 def reachable_moves(first: Pose, moves=MOVES) -> list[tuple[float, float, float]]:
@@ -391,6 +415,8 @@ def plan(grasps: Sequence[Grasp], model, controller: ControllerSettings,
     first = grasps[0].pose
     before = cache.simulated
     reachable = reachable_moves(first, moves)
+    if AVOID_VISITED:
+        reachable = unvisited(reachable, first, [g.pose for g in grasps])
     cache.prefetch([(h.shape, sizes, moved(h.pose, move), controller) for move in reachable
                     for h in hyps for sizes in _outcomes(h, OUTCOMES)])  # fmt: skip
     gains = {}

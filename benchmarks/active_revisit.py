@@ -1,0 +1,77 @@
+"""The planner with and without ``AVOID_VISITED`` (no pose grasped twice) on the ``active``
+protocol's objects: the ``planned`` strategy on every column, the same objects and seeds,
+each explored to three grasps; per column, the objects right after 1, 2 and 3 grasps and with
+the stopping rule, and the declared rule's verdict (docs/exploration.md, "Declared before
+seed 2").
+
+    python benchmarks/active_revisit.py [--scale full] [--seed 2] \\
+        [--other-hand menagerie=M.xml --other-hand gymnasium=G.xml] [--json OUT.json]
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import tempfile
+import time
+from pathlib import Path
+
+from _report import provenance  # first: this checkout ahead of an installed copy
+
+from tactile_bullet.experiments import exploration
+from tactile_bullet.experiments.active import GRASPS, columns, score_column
+from tactile_bullet.learn.default import default_model
+
+
+def verdict(rows: dict[str, dict[str, dict]]) -> tuple[bool, list[str]]:
+    """The declared rule on per-column rows ``{column: {"with": row, "without": row}}``."""
+    def count(row, k):
+        return sum(r[k] for r in row["right"])
+
+    gain3 = sum(count(r["with"], GRASPS - 1) - count(r["without"], GRASPS - 1)
+                for r in rows.values())
+    worst = min(count(r["with"], k) - count(r["without"], k)
+                for r in rows.values() for k in (1, 2))
+    stop = sum(sum(r["with"]["stop_right"]) - sum(r["without"]["stop_right"])
+               for r in rows.values())
+    checks = [f"(a) objects right after {GRASPS} grasps, summed: {gain3:+d} (needs >= +1)",
+              f"(b) a column's largest loss after 2 or 3 grasps: {-min(worst, 0)} (at most 1)",
+              f"(c) right with the stopping rule, summed: {stop:+d} (must not fall)"]
+    return gain3 >= 1 and worst >= -1 and stop >= 0, checks
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--scale", default="full", help="the protocol's scale (quick, full)")
+    ap.add_argument("--seed", type=int, default=2, help="the protocol's --seed")
+    ap.add_argument("--other-hand", action="append", default=[], metavar="NAME=FILE")
+    ap.add_argument("--json", help="write every row here as well")
+    args = ap.parse_args(argv)
+    provenance(argv)
+    hands = dict(h.split("=", 1) for h in args.other_hand)
+    model = default_model()
+    rows: dict[str, dict[str, dict]] = {}
+    with tempfile.TemporaryDirectory() as tmp:
+        for name, (controller, objects) in columns(args.scale, hands, args.seed,
+                                                   Path(tmp)).items():  # fmt: skip
+            for label, on in (("without", False), ("with", True)):
+                exploration.AVOID_VISITED = on
+                started = time.perf_counter()
+                row, _ = score_column(objects, controller, model, "planned", args.seed)
+                rows.setdefault(name, {})[label] = row
+                right = [sum(r[k] for r in row["right"]) for k in range(GRASPS)]
+                print(f"{name:13s} {label:8s} objects {row['objects']:3d}  right after 1/2/3 "
+                      f"grasps {'/'.join(map(str, right))}  with stopping "
+                      f"{sum(row['stop_right'])} in {row['mean_grasps']:.2f} grasps  "
+                      f"({time.perf_counter() - started:.0f} s)", flush=True)  # fmt: skip
+    kept, checks = verdict(rows)
+    print("\n".join(checks))
+    print("declared rule:", "kept" if kept else "reverted")
+    if args.json:
+        Path(args.json).write_text(json.dumps({"seed": args.seed, "scale": args.scale,
+                                               "rows": rows, "kept": kept}, indent=1))
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

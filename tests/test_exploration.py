@@ -316,3 +316,35 @@ def test_every_hard_object_of_the_active_protocol_is_a_valid_grasp(tmp_path):
     tori = [p for s, p, _ in border if s == "torus"]
     assert all(p["major_radius"] - p["minor_radius"] <= 0.006 for p in tori)  # hole nearly shut
     assert cols["gymnasium"][0].hand_model.endswith("hand.xml")
+
+
+@pytest.mark.slow
+def test_explore_reads_and_plans_with_the_model_given(synthetic_split, capsys, tmp_path):
+    """``--model``: every grasp is read by that model (its classes are the posterior's) and the
+    answer names it; the default identifier is not used."""
+    from tactile_bullet.cli import main
+    from tactile_bullet.experiments.training import train
+    from tactile_bullet.learn.models import save_model
+
+    three = [r for r in synthetic_split[0] if r.shape in ("cone", "sphere", "cylinder")]
+    path = save_model(tmp_path / "m.npz", train(three, "raw-joints", "knn", doubt=False))
+    argv = ["explore", "--shape", "sphere", "--param", "radius=0.05", "--engine", "mujoco",
+            "--max-grasps", "2", "--model", str(path), "--json"]  # fmt: skip
+    assert main(argv) == 0
+    doc = json.loads(capsys.readouterr().out)
+    assert doc["answer"]["identifier"] == "model"
+    assert doc["answer"]["method"]["name"] == "raw-joints + knn"
+    assert doc["answer"]["method"]["file"] == str(path)
+    assert set(doc["answer"]["probabilities"]) == {"cone", "sphere", "cylinder"}
+    for g in doc["grasps"]:
+        assert set(g["posterior"]) == {"cone", "sphere", "cylinder"}
+
+
+def test_explore_refuses_a_damaged_model_before_any_grasp(capsys, tmp_path, monkeypatch):
+    bad = tmp_path / "bad.npz"
+    bad.write_bytes(b"not a model")
+    import tactile_bullet.sim.grasp as G
+
+    monkeypatch.setattr(G, "simulate_grasp", lambda *a, **k: pytest.fail("grasped"))
+    message = run_error(capsys, ["explore", "--shape", "sphere", "--model", str(bad)])
+    assert "bad.npz" in message

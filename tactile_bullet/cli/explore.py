@@ -53,6 +53,11 @@ def add_parser(sub) -> None:
         help="how later grasps are read: model (each grasp's own answer, the default) or "
         "simulated (how well each likely shape, simulated at that pose, explains the grasp)",
     )  # fmt: skip
+    parser.add_argument(
+        "--model", metavar="FILE",
+        help="the model that reads each grasp and plans (a file written by `train` or "
+        "`adapt`; default: the built-in default identifier, docs/robustness.md)",
+    )  # fmt: skip
     parser.add_argument("--plot", metavar="PNG", help="draw the posterior after each grasp")
     add_force_flag(parser, "--plot")
     parser.add_argument("--seed", type=seed_number, default=0, help="seed (random strategy)")
@@ -77,18 +82,17 @@ def run(args: argparse.Namespace) -> int:
     if args.mesh and args.param:
         raise UsageError("--param sizes a --shape; a --mesh has its own size")
     controller = ControllerSettings(**engine_settings(args))
+    from ..learn.default import resolve_model
+
+    model = resolve_model(args.model)  # a damaged or foreign file: one line, before any grasp
     log = None if args.json else print
     doc = explore(target, params or None, pose, controller, max_grasps=args.max_grasps,
-                  strategy=args.strategy, seed=args.seed, log=log,
+                  model=model, strategy=args.strategy, seed=args.seed, log=log,
                   fusion=args.fusion)  # fmt: skip
     doc.pop("fused")
-    from ..learn.default import default_meta
-
-    meta = default_meta()
     fused = doc["answer"]
     doc["answer"] = {
-        "shape": fused["shape"], "identifier": "default",
-        "method": {"name": meta.get("method"), "training": meta.get("training")},
+        "shape": fused["shape"], **_identifier(args.model, model),
         "probabilities": fused["posterior"], "ambiguous": fused["ambiguous"],
         "unknown": fused["unknown"], "grasps": fused["grasps"],
     }  # fmt: skip
@@ -117,3 +121,17 @@ def run(args: argparse.Namespace) -> int:
     if "plot" in outputs:
         print(f"wrote plot: {outputs['plot']}")
     return 0
+
+
+def _identifier(path: str | None, model) -> dict:
+    """``identifier`` and ``method`` of the answer: the default's description, or the model
+    file's descriptor and classifier."""
+    from ..learn.default import DEFAULT_NAME, default_meta
+
+    if path is None or str(path) == DEFAULT_NAME:
+        meta = default_meta()
+        return {"identifier": "default",
+                "method": {"name": meta.get("method"), "training": meta.get("training")}}
+    return {"identifier": "model",
+            "method": {"name": f"{model.descriptor} + {model.classifier}", "training": None,
+                       "file": str(path)}}  # fmt: skip

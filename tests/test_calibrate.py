@@ -348,3 +348,43 @@ def test_the_identifier_loads_a_hand_calibration(tmp_path, known, capsys):
     bad.write_text("version = 1\n")
     with pytest.raises(UsageError, match="hand calibration"):
         Identifier.load(model, hand_calibration=bad)
+
+
+@pytest.mark.slow
+def test_the_cross_check_reads_our_mujoco_hand_with_its_own_coefficients(monkeypatch):
+    """A grasp of our MuJoCo hand is read by the doubt's cross-check with the coefficients
+    fitted on that hand (``data/shape_fit_mujoco.toml``): a fat torus the shipped (Bullet)
+    coefficients read as a sphere is a torus to its own. A grasp made with another hand model,
+    or under a hand calibration the user put in force, is read as before."""
+    from tactile_bullet.learn import doubt
+    from tactile_bullet.perception.shape_model import (
+        calibration_in_force,
+        own_hand_calibration,
+        record_calibration,
+    )
+    from tactile_bullet.records import ControllerSettings, Pose
+    from tactile_bullet.sim.grasp import simulate_grasp
+
+    families = ["cone", "torus", "sphere", "hyperboloid", "cylinder"]
+    torus = {"major_radius": 0.05375, "minor_radius": 0.052875}
+    ctl = ControllerSettings(engine="mujoco")
+    grasp = simulate_grasp("torus", torus, Pose(), ctl)
+    own = own_hand_calibration("mujoco")
+    assert record_calibration(grasp) is own and not np.allclose(own.intercept, SHIPPED.intercept)
+    assert list(doubt.cross_check_names([grasp], families)) == ["torus"]
+    other_hand = replace(grasp, controller=replace(ctl, hand_model="their_hand.xml"))
+    assert record_calibration(other_hand) is None
+    assert list(doubt.cross_check_names([other_hand], families)) == ["sphere"]
+    with use_calibration(SHIPPED):
+        assert calibration_in_force() is SHIPPED and record_calibration(grasp) is None
+        assert list(doubt.cross_check_names([grasp], families)) == ["sphere"]
+    monkeypatch.setattr(doubt, "OWN_HAND_COEFFICIENTS", False)
+    assert list(doubt.cross_check_names([grasp, other_hand], families)) == ["sphere", "sphere"]
+
+
+def test_the_shipped_mujoco_coefficients_are_a_valid_hand_calibration():
+    from tactile_bullet.perception.shape_model import OWN_HAND_FILES, own_hand_calibration
+
+    assert set(OWN_HAND_FILES) == {"mujoco"} and own_hand_calibration("bullet") is None
+    cal = own_hand_calibration("mujoco")
+    assert cal.angles == "raw" and np.all(cal.sigma > 0)

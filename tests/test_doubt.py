@@ -228,3 +228,18 @@ def test_the_sample_keeps_the_noisy_copies_of_a_grasp_together():
     chosen, copies = np.unique(groups[keep], return_counts=True)
     assert len(chosen) == 12 and set(copies) == {4}
     assert sorted(np.unique(shapes[chosen], return_counts=True)[1]) == [4, 4, 4]
+
+
+def test_an_answer_its_contacts_renamed_is_ambiguous_whatever_the_cross_check_says():
+    """The classifier read sphere (p 0.9), the contacts named torus: its probabilities stand,
+    so the answer is never sure, even where the cross-check agrees with the contacts."""
+    from tactile_bullet.learn.doubt import answer_doubt
+
+    classes = ["sphere", "torus", "cone"]
+    proba = np.array([0.9, 0.07, 0.03])
+    for opinion in ("torus", None):
+        doc = answer_doubt(classes, "torus", proba, -1.0, second_opinion=opinion,
+                           renamed_from="sphere")  # fmt: skip
+        assert doc["ambiguous"] == ["torus", "sphere"] and doc["renamed_from"] == "sphere"
+    sure = answer_doubt(classes, "sphere", proba, -1.0, second_opinion="sphere")
+    assert sure["ambiguous"] is None

@@ -35,6 +35,7 @@ alone, with the whole ``FALSE_ALARM`` budget.
 from __future__ import annotations
 
 from collections.abc import Callable, Sequence
+from contextlib import nullcontext
 from typing import Any
 
 import numpy as np
@@ -68,26 +69,51 @@ def cross_check_applies(classes: Sequence[str], classifier: str) -> bool:
     return classifier != CROSS_CHECK and all(str(c) in known for c in classes)
 
 
+OWN_HAND_COEFFICIENTS = True
+"""The cross-check reads a grasp of our own MuJoCo hand with that hand's coefficients
+(``shape_model.record_calibration``), not Bullet's; judged on the tenth replicate
+(docs/robustness.md). False: every grasp with the coefficients in force, as before."""
+
+
 def cross_check_names(records: Sequence, classes: Sequence[str]) -> np.ndarray:
     """The shape fit's answer among ``classes`` for each record ('' where it cannot read one),
-    each read as the coefficients in force were fitted (:func:`.robust.angles_for_shape_fit`)."""
+    each read as the coefficients in force were fitted (:func:`.robust.angles_for_shape_fit`),
+    a grasp of our own MuJoCo hand with that hand's coefficients where no hand calibration is
+    in force (:data:`OWN_HAND_COEFFICIENTS`)."""
+    from ..perception.shape_model import record_calibration
+
+    groups: dict[int, tuple] = {}  # one batch of fits per set of coefficients
+    for i, rec in enumerate(records):
+        cal = record_calibration(rec) if OWN_HAND_COEFFICIENTS else None
+        groups.setdefault(id(cal), (cal, []))[1].append(i)
+    out = np.full(len(records), "", dtype=object)
+    for cal, index in groups.values():
+        out[index] = _cross_check_batch([records[i] for i in index], classes, cal)
+    return out.astype(str)
+
+
+def _cross_check_batch(records: Sequence, classes: Sequence[str], calibration) -> np.ndarray:
+    """:func:`cross_check_names` of records read with one set of coefficients (None: those
+    in force)."""
     from ..errors import UsageError
     from ..perception.fit_batch import fit_many
+    from ..perception.shape_model import use_calibration
     from .robust import angles_for_shape_fit
 
     families = [str(c) for c in classes]
     angles, readable = [], []
-    for i, rec in enumerate(records):
-        try:
-            angles.append(angles_for_shape_fit(rec))
-            readable.append(i)
-        except UsageError:  # no angles to read: no second opinion
-            pass
+    with use_calibration(calibration) if calibration is not None else nullcontext():
+        for i, rec in enumerate(records):
+            try:
+                angles.append(angles_for_shape_fit(rec))
+                readable.append(i)
+            except UsageError:  # no angles to read: no second opinion
+                pass
+        # each grasp's fit is kept: asked again (another fold), it is not redone
+        fits = fit_many(angles, families, desc="shape fit (second opinion)")
     out = np.full(len(records), "", dtype=object)
-    # each grasp's fit is kept: asked again (another fold), it is not redone
-    fits = fit_many(angles, families, desc="shape fit (second opinion)")
     out[readable] = [fit.shape for fit in fits]
-    return out.astype(str)
+    return out
 
 
 def margins(proba: np.ndarray, decided: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -314,7 +340,8 @@ def answer_doubt(
 ) -> dict[str, Any]:
     """:func:`no_doubt`'s fields of one answer:
     ``ambiguous`` is ``[shape, runner-up]`` when the margin is below the threshold, else
-    ``[shape, second_opinion]`` when the cross-check names another shape, else None; without
+    ``[shape, second_opinion]`` when the cross-check names another shape, else
+    ``[shape, renamed_from]`` when the contacts overruled the classifier, else None; without
     probabilities the margin is None. ``cross_check`` is the second opinion (None where none
     was asked). ``unknown`` is True where the grasp's ``novelty`` (its distance from the
     model's training grasps, :mod:`.novelty`) is above the model's ``novelty_threshold``, or
@@ -339,6 +366,9 @@ def answer_doubt(
             out["ambiguous"] = [shape, classes[int(second[0])]]
     if out["ambiguous"] is None and opinion is not None and opinion != shape:
         out["ambiguous"] = [shape, opinion]
+    if out["ambiguous"] is None and renamed_from is not None and renamed_from != shape:
+        # the contacts overruled the classifier, whose probabilities stand: never sure
+        out["ambiguous"] = [shape, renamed_from]
     why = getattr(contacts, "unknown_why", None)
     if novelty is not None and novelty_threshold is not None and novelty > novelty_threshold:
         out["unknown"], out["unknown_why"] = True, UNLIKE_TRAINING

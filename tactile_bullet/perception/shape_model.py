@@ -345,6 +345,41 @@ def active_calibration() -> Calibration:
     return _ACTIVE.get() or load_calibration()
 
 
+def calibration_in_force() -> Calibration | None:
+    """The hand calibration :func:`use_calibration` put in force, None where none is."""
+    return _ACTIVE.get()
+
+
+OWN_HAND_FILES = {"mujoco": "data/shape_fit_mujoco.toml"}
+"""Per engine, the coefficients of the package's own hand there, where they differ from the
+shipped ones (fitted on Bullet's hand): ``tactile-bullet calibrate`` on the robustness
+matrix's MuJoCo training set (docs/robustness.md, the tenth replicate's declaration)."""
+
+
+@cache
+def own_hand_calibration(engine: str) -> Calibration | None:
+    """The coefficients of the package's own hand on ``engine`` (None: the shipped ones)."""
+    name = OWN_HAND_FILES.get(engine)
+    if name is None:
+        return None
+    from ..realhand.hand_calibration import load
+
+    with resources.as_file(resources.files("tactile_bullet").joinpath(name)) as path:
+        return load(path).calibration
+
+
+def record_calibration(record) -> Calibration | None:
+    """The coefficients that read ``record``'s hand, where the package has its own for it:
+    a grasp of our hand on an engine in :data:`OWN_HAND_FILES` (no ``--hand-model``), with no
+    hand calibration in force. None otherwise (the coefficients in force, or the shipped)."""
+    if calibration_in_force() is not None:
+        return None
+    controller = getattr(record, "controller", None)
+    if controller is None or getattr(controller, "hand_model", None):
+        return None
+    return own_hand_calibration(str(getattr(controller, "engine", "")))
+
+
 @contextmanager
 def use_calibration(calibration: Calibration | None) -> Iterator[None]:
     """Within the block, every shape fit that names no coefficients uses ``calibration`` (None:

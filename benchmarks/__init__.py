@@ -44,6 +44,8 @@ NEEDS: dict[str, str] = {
     "border and unseen-poses at full scale)",
     "active_revisit": "no dataset; explores the active protocol's objects twice, with and "
     "without the no-revisit rule (about 10 minutes at full scale with both other hands)",
+    "own_hand_cross_check": "labelled datasets (--data, repeatable; a robustness matrix's "
+    "robust-mujoco-test-rK set for the tenth replicate's judgement); seconds each",
     "torus_rule_design": "two or more full-scale robustness matrix runs' --out folders with "
     "their caches; about a minute",
     "torus_sphere_figure": "no dataset; simulates a MuJoCo torus and a Bullet ovoid and writes "

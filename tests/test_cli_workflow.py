@@ -72,6 +72,19 @@ def test_evaluate_json_contract_and_report_folder(folders, model_file, capsys, t
     assert (tmp_path / "accuracy_by_position.png").is_file()
 
 
+def test_evaluate_without_a_model_scores_the_default_identifier(folders, capsys):
+    """As ``identify`` and ``grasp`` answer with the default when no --model is given, so
+    ``evaluate`` scores it (``--model default`` names it too)."""
+    from tactile_bullet.learn.default import default_meta
+
+    _, _, test = folders
+    doc = run_json(capsys, ["evaluate", "--data", str(test)])
+    named = run_json(capsys, ["evaluate", "--model", "default", "--data", str(test)])
+    assert doc == named and doc["model"]["descriptor"] == default_meta()["descriptor"]
+    assert doc["model"]["classifier"] == default_meta()["classifier"]
+    assert sum(map(sum, doc["confusion_matrix"])) == doc["records"]
+
+
 def test_evaluate_prints_a_confusion_matrix_on_a_terminal(folders, model_file, capsys):
     _, _, test = folders
     assert main(["evaluate", "--model", str(model_file), "--data", str(test)]) == 0

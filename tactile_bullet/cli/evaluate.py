@@ -13,11 +13,16 @@ def add_parser(sub) -> None:
     parser = sub.add_parser(
         "evaluate",
         help="score a model on a dataset (accuracy, confusion matrix, by size and position)",
-        description="Predict the shape of every grasp in a dataset with a saved model and "
+        description="Predict the shape of every grasp in a dataset with a saved model (or the "
+        "default identifier) and "
         "compare with the true shapes: accuracy, confusion matrix, precision and recall per "
         "shape, accuracy by object size and by position.",
     )
-    parser.add_argument("--model", required=True, help="model file written by `train`")
+    parser.add_argument(
+        "--model", metavar="FILE",
+        help="model file written by `train` or `adapt` (default: the built-in default "
+        "identifier, the robustness matrix's winner: docs/robustness.md)",
+    )  # fmt: skip
     parser.add_argument("--data", required=True, metavar="DIR", help="dataset folder or .npz")
     add_allow_partial(parser)
     parser.add_argument(
@@ -40,11 +45,11 @@ def run(args: argparse.Namespace) -> int:
     )
     from ..experiments.training import evaluate
     from ..files import existing_outputs
-    from ..learn.models import load_model
+    from ..learn.default import resolve_model
 
     if args.report:
         existing_outputs(Path(args.report), REPORT_FILES, "--report folder", args.force)
-    model = load_model(args.model)
+    model = resolve_model(args.model)
     report = report_dir(args.report) if args.report else None
     loaded = read_data(args.data, args)
     doc = evaluate(model, loaded.records)

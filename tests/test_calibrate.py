@@ -388,3 +388,16 @@ def test_the_shipped_mujoco_coefficients_are_a_valid_hand_calibration():
     assert set(OWN_HAND_FILES) == {"mujoco"} and own_hand_calibration("bullet") is None
     cal = own_hand_calibration("mujoco")
     assert cal.angles == "raw" and np.all(cal.sigma > 0)
+
+
+def test_a_damaged_own_hand_file_is_refused_not_used(monkeypatch):
+    from tactile_bullet.perception import shape_model
+
+    monkeypatch.setitem(shape_model.OWN_HAND_FILES, "mujoco", "data/default_model.json")
+    shape_model.own_hand_calibration.cache_clear()
+    try:
+        with pytest.raises(UsageError, match="damaged"):
+            shape_model.own_hand_calibration("mujoco")
+    finally:
+        monkeypatch.undo()
+        shape_model.own_hand_calibration.cache_clear()

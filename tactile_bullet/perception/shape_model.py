@@ -358,14 +358,24 @@ matrix's MuJoCo training set (docs/robustness.md, the tenth replicate's declarat
 
 @cache
 def own_hand_calibration(engine: str) -> Calibration | None:
-    """The coefficients of the package's own hand on ``engine`` (None: the shipped ones)."""
+    """The coefficients of the package's own hand on ``engine`` (None: the shipped ones): the
+    ``[coefficients]`` table of a ``calibrate`` file, checked as any calibration is (a damaged
+    file is refused, never used)."""
     name = OWN_HAND_FILES.get(engine)
     if name is None:
         return None
-    from ..realhand.hand_calibration import load
+    import tomllib
 
-    with resources.as_file(resources.files("tactile_bullet").joinpath(name)) as path:
-        return load(path).calibration
+    try:
+        doc = tomllib.loads(resources.files("tactile_bullet").joinpath(name).read_text())
+        cal = Calibration.from_dict(doc["coefficients"], name)
+        angles = doc.get("report", {}).get("angles", "raw")
+    except (OSError, ValueError, KeyError, TypeError, AttributeError) as exc:
+        raise UsageError(f"{name} is missing or damaged ({exc}); reinstall tactile-bullet"
+                         ) from None
+    from dataclasses import replace
+
+    return replace(cal, angles=angles)
 
 
 def record_calibration(record) -> Calibration | None:

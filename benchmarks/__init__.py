@@ -42,8 +42,8 @@ NEEDS: dict[str, str] = {
     "cylinder_cone_fit": "no dataset; simulates four cylinders (seconds)",
     "active_flips": "no dataset; explores the active protocol's objects (about 2 minutes for "
     "border and unseen-poses at full scale)",
-    "active_revisit": "no dataset; explores the active protocol's objects twice, with and "
-    "without the no-revisit rule (about 10 minutes at full scale with both other hands)",
+    "active_switch": "no dataset; explores the active protocol's objects twice, with a "
+    "declared planner rule off and on (about 10 minutes at full scale with both other hands)",
     "own_hand_cross_check": "labelled datasets (--data, repeatable; a robustness matrix's "
     "robust-mujoco-test-rK set for the tenth replicate's judgement); seconds each",
     "torus_rule_design": "two or more full-scale robustness matrix runs' --out folders with "

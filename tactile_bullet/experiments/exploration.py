@@ -32,6 +32,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable, Mapping, Sequence
+from contextlib import nullcontext
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -60,11 +61,15 @@ SIZE_STEP = 0.08
 OUTCOMES = 1
 """Simulated outcomes per hypothesis and move (fitted sizes, then larger, then smaller): one
 keeps a decision near a second on MuJoCo (docs/exploration.md)."""
+OWN_HAND_HYPOTHESES = True
+"""Fit the hypotheses to the first grasp with the coefficients of the hand that made it where
+the package has them (our MuJoCo hand: ``shape_model.record_calibration``), as the doubt's
+cross-check reads it; False: with the coefficients in force (Bullet's hand's, shipped)."""
 AVOID_VISITED = False
 """Leave out of the planner's candidates every move to a pose already grasped (a grasp there
 repeats what was read, while the expected gain counts it as new evidence). Off: declared and
 judged on seed 2 of the ``active`` protocol, it gained no object after three grasps and lost
-one with the stopping rule (docs/exploration.md); ``benchmarks/active_revisit.py`` turns it
+one with the stopping rule (docs/exploration.md); ``benchmarks/active_switch.py`` turns it
 on to reproduce that."""
 
 
@@ -259,19 +264,22 @@ class Hypothesis:
 def hypotheses(model, grasps: Sequence[Grasp], answer: Mapping[str, Any],
                k: int = HYPOTHESES) -> list[Hypothesis]:  # fmt: skip
     """The ``k`` likeliest shapes the shape fit can model, each with the sizes and pose it
-    fits to the first grasp."""
+    fits to the first grasp (read with its own hand's coefficients: :data:`OWN_HAND_HYPOTHESES`)."""
     from ..learn.robust import angles_for_shape_fit
     from ..perception.shape_fit import fit_family, fitted_shapes
+    from ..perception.shape_model import record_calibration, use_calibration
 
     modelled = set(fitted_shapes())
     ranked = sorted(answer["posterior"].items(), key=lambda kv: -kv[1])
     out = []
     first = grasps[0]
-    angles = angles_for_shape_fit(first.record)
+    own = record_calibration(first.record) if OWN_HAND_HYPOTHESES else None
+    with use_calibration(own) if own is not None else nullcontext():
+        angles = angles_for_shape_fit(first.record)
     for shape, weight in ranked:
         if shape not in modelled or weight <= 0:
             continue
-        fit = fit_family(angles, shape)
+        fit = fit_family(angles, shape, own)
         x, z = fit.offset
         pose = Pose((x, 0.0, z), math.radians(fit.rotation_deg))
         out.append(Hypothesis(shape, dict(fit.params), pose, float(weight)))

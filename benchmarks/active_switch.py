@@ -1,11 +1,13 @@
-"""The planner with and without ``AVOID_VISITED`` (no pose grasped twice) on the ``active``
-protocol's objects: the ``planned`` strategy on every column, the same objects and seeds,
-each explored to three grasps; per column, the objects right after 1, 2 and 3 grasps and with
-the stopping rule, and the declared rule's verdict (docs/exploration.md, "Declared before
-seed 2").
+"""The planner with one of its declared switches off and on (``--switch``:
+``AVOID_VISITED``, no pose grasped twice; ``OWN_HAND_HYPOTHESES``, the hypotheses fitted with
+the hand's own coefficients) on the ``active`` protocol's objects: the ``planned`` strategy on
+every column asked for, the same objects and seeds, each explored to three grasps; per column,
+the objects right after 1, 2 and 3 grasps and with the stopping rule, and the declared rule's
+verdict (docs/exploration.md, "Declared before seed 2" and "Declared before seed 3").
 
-    python benchmarks/active_revisit.py [--scale full] [--seed 2] \\
-        [--other-hand menagerie=M.xml --other-hand gymnasium=G.xml] [--json OUT.json]
+    python benchmarks/active_switch.py --switch AVOID_VISITED [--scale full] [--seed 2] \
+        [--other-hand menagerie=M.xml --other-hand gymnasium=G.xml] [--columns ...] \
+        [--hold-off OWN_HAND_COEFFICIENTS ...] [--json OUT.json]
 """
 
 from __future__ import annotations
@@ -20,7 +22,14 @@ from _report import provenance  # first: this checkout ahead of an installed cop
 
 from tactile_bullet.experiments import exploration
 from tactile_bullet.experiments.active import GRASPS, columns, score_column
+from tactile_bullet.learn import doubt
 from tactile_bullet.learn.default import default_model
+
+SWITCHES = ("AVOID_VISITED", "OWN_HAND_HYPOTHESES")
+HOLDABLE = {"AVOID_VISITED": exploration, "OWN_HAND_HYPOTHESES": exploration,
+            "OWN_HAND_COEFFICIENTS": doubt}  # fmt: skip
+"""Switches ``--hold-off`` keeps off in both arms (a rule that came after the run to
+reproduce: the seed 2 judgement predates both own-hand rules)."""
 
 
 def verdict(rows: dict[str, dict[str, dict]]) -> tuple[bool, list[str]]:
@@ -45,17 +54,25 @@ def main(argv=None) -> int:
     ap.add_argument("--scale", default="full", help="the protocol's scale (quick, full)")
     ap.add_argument("--seed", type=int, default=2, help="the protocol's --seed")
     ap.add_argument("--other-hand", action="append", default=[], metavar="NAME=FILE")
+    ap.add_argument("--switch", required=True, choices=SWITCHES, help="the rule turned on")
+    ap.add_argument("--columns", help="columns, comma-separated (default: every one)")
+    ap.add_argument("--hold-off", action="append", default=[], choices=sorted(HOLDABLE),
+                    help="keep this switch off in both arms (repeatable)")
     ap.add_argument("--json", help="write every row here as well")
     args = ap.parse_args(argv)
     provenance(argv)
     hands = dict(h.split("=", 1) for h in args.other_hand)
+    for name in args.hold_off:
+        setattr(HOLDABLE[name], name, False)
     model = default_model()
     rows: dict[str, dict[str, dict]] = {}
     with tempfile.TemporaryDirectory() as tmp:
-        for name, (controller, objects) in columns(args.scale, hands, args.seed,
-                                                   Path(tmp)).items():  # fmt: skip
+        table = columns(args.scale, hands, args.seed, Path(tmp))
+        wanted = args.columns.split(",") if args.columns else list(table)
+        for name in wanted:
+            controller, objects = table[name]
             for label, on in (("without", False), ("with", True)):
-                exploration.AVOID_VISITED = on
+                setattr(exploration, args.switch, on)
                 started = time.perf_counter()
                 row, _ = score_column(objects, controller, model, "planned", args.seed)
                 rows.setdefault(name, {})[label] = row
@@ -69,6 +86,7 @@ def main(argv=None) -> int:
     print("declared rule:", "kept" if kept else "reverted")
     if args.json:
         Path(args.json).write_text(json.dumps({"seed": args.seed, "scale": args.scale,
+                                               "switch": args.switch,
                                                "rows": rows, "kept": kept}, indent=1))
     return 0
 

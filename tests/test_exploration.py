@@ -348,3 +348,31 @@ def test_explore_refuses_a_damaged_model_before_any_grasp(capsys, tmp_path, monk
     monkeypatch.setattr(G, "simulate_grasp", lambda *a, **k: pytest.fail("grasped"))
     message = run_error(capsys, ["explore", "--shape", "sphere", "--model", str(bad)])
     assert "bad.npz" in message
+
+
+@pytest.mark.slow
+def test_the_hypotheses_are_fitted_with_the_hands_own_coefficients(monkeypatch):
+    """A first grasp of our MuJoCo hand: each hypothesis carries the sizes and pose the shape
+    fit gives with that hand's coefficients (``OWN_HAND_HYPOTHESES``); with the switch off,
+    with the shipped ones."""
+    from tactile_bullet.learn.robust import angles_for_shape_fit
+    from tactile_bullet.perception.shape_fit import fit_family
+    from tactile_bullet.perception.shape_model import load_calibration, own_hand_calibration
+    from tactile_bullet.sim.grasp import simulate_grasp
+
+    first = Pose((0.004, 0.0, 0.0))
+    record = simulate_grasp("torus", {"major_radius": 0.05375, "minor_radius": 0.052875}, first,
+                            ControllerSettings(engine="mujoco"))  # fmt: skip
+    answer = {"posterior": {"torus": 0.6, "sphere": 0.4}}
+    angles = angles_for_shape_fit(record)
+    sizes = []
+    for on, cal in ((True, own_hand_calibration("mujoco")), (False, load_calibration())):
+        monkeypatch.setattr(E, "OWN_HAND_HYPOTHESES", on)
+        hyps = E.hypotheses(None, [E.Grasp(record, first)], answer)
+        assert [h.shape for h in hyps] == ["torus", "sphere"]
+        for h in hyps:
+            fit = fit_family(angles, h.shape, cal)
+            assert h.params == dict(fit.params)
+            assert h.pose.offset == pytest.approx((fit.offset[0], 0.0, fit.offset[1]))
+        sizes.append([h.params for h in hyps])
+    assert sizes[0] != sizes[1]  # the two hands' coefficients fit other objects

@@ -382,6 +382,27 @@ def test_the_cross_check_reads_our_mujoco_hand_with_its_own_coefficients(monkeyp
     assert list(doubt.cross_check_names([grasp, other_hand], families)) == ["sphere", "sphere"]
 
 
+@pytest.mark.slow
+def test_grasps_shape_fit_detail_reads_our_mujoco_hand_as_the_cross_check_does(capsys):
+    """``grasp --engine mujoco``: the shape fit's detail block and the answer's cross-check read
+    the grasp with the same (the MuJoCo hand's own) coefficients, so they name the same family;
+    under the shipped coefficients the detail would say sphere."""
+    from tactile_bullet.perception.shape_fit import shape_fit_summary
+    from tactile_bullet.records import ControllerSettings, Pose
+    from tactile_bullet.sim.grasp import simulate_grasp
+
+    argv = ["grasp", "--shape", "torus", "--param", "major_radius=0.05375",
+            "--param", "minor_radius=0.052875", "--engine", "mujoco", "--json"]  # fmt: skip
+    assert main(argv) == 0
+    doc = json.loads(capsys.readouterr().out)
+    assert doc["shape_fit"]["shape"] == doc["answer"]["cross_check"] == "torus"
+    assert doc["answer"]["others"]["shape-fit"] == "torus"
+    grasp = simulate_grasp("torus", {"major_radius": 0.05375, "minor_radius": 0.052875}, Pose(),
+                           ControllerSettings(engine="mujoco"))  # fmt: skip
+    with use_calibration(SHIPPED):
+        assert shape_fit_summary(grasp)["shape"] == "sphere"
+
+
 def test_the_shipped_mujoco_coefficients_are_a_valid_hand_calibration():
     from tactile_bullet.perception.shape_model import OWN_HAND_FILES, own_hand_calibration
 

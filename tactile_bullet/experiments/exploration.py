@@ -226,8 +226,7 @@ def simulated_likelihoods(model, grasps: Sequence[Grasp], hyps: Sequence[Hypothe
     first = grasps[0].pose
     out = []
     for g in grasps[1:]:
-        move = (g.pose.offset[0] - first.offset[0], g.pose.offset[2] - first.offset[2],
-                math.degrees(g.pose.rotation - first.rotation))  # fmt: skip
+        move = move_of(first, g.pose)
         observed = (model.features([g.record])[0] - novelty.centre) / novelty.scale
         like = {}
         for h in hyps:

@@ -32,7 +32,6 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable, Mapping, Sequence
-from contextlib import nullcontext
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -270,14 +269,14 @@ def hypotheses(model, grasps: Sequence[Grasp], answer: Mapping[str, Any],
     :data:`OWN_HAND_HYPOTHESES`)."""
     from ..learn.robust import angles_for_shape_fit
     from ..perception.shape_fit import fit_family, fitted_shapes
-    from ..perception.shape_model import record_calibration, use_calibration
+    from ..perception.shape_model import record_calibration, use_own
 
     modelled = set(fitted_shapes())
     ranked = sorted(answer["posterior"].items(), key=lambda kv: -kv[1])
     out = []
     first = grasps[0]
     own = record_calibration(first.record) if OWN_HAND_HYPOTHESES else None
-    with use_calibration(own) if own is not None else nullcontext():
+    with use_own(own):
         angles = angles_for_shape_fit(first.record)
     for shape, weight in ranked:
         if shape not in modelled or weight <= 0:

@@ -35,7 +35,6 @@ alone, with the whole ``FALSE_ALARM`` budget.
 from __future__ import annotations
 
 from collections.abc import Callable, Sequence
-from contextlib import nullcontext
 from typing import Any
 
 import numpy as np
@@ -97,12 +96,12 @@ def _cross_check_batch(records: Sequence, classes: Sequence[str], calibration) -
     in force)."""
     from ..errors import UsageError
     from ..perception.fit_batch import fit_many
-    from ..perception.shape_model import use_calibration
+    from ..perception.shape_model import use_own
     from .robust import angles_for_shape_fit
 
     families = [str(c) for c in classes]
     angles, readable = [], []
-    with use_calibration(calibration) if calibration is not None else nullcontext():
+    with use_own(calibration):
         for i, rec in enumerate(records):
             try:
                 angles.append(angles_for_shape_fit(rec))

@@ -561,17 +561,14 @@ def shape_fit_summary(record) -> dict | None:
     air would still fit some family best, and a shape name there would be a guess). A grasp
     of our own MuJoCo hand is read with that hand's coefficients
     (``shape_model.record_calibration``), as the doubt's cross-check reads it, so the two agree."""
-    from contextlib import nullcontext
-
     from ..learn.robust import angles_for_shape_fit
     from .contact import nothing_to_identify
-    from .shape_model import record_calibration, use_calibration
+    from .shape_model import record_calibration, use_own
 
     if nothing_to_identify(record) is not None:
         return None
-    own = record_calibration(record)  # our MuJoCo hand: its own, as the cross-check reads it
-    try:
-        with use_calibration(own) if own is not None else nullcontext():
+    try:  # our MuJoCo hand with its own coefficients, as the cross-check reads it
+        with use_own(record_calibration(record)):
             return fit_shape(angles_for_shape_fit(record)).summary()
     except UsageError:
         return None

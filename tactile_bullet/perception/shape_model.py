@@ -13,7 +13,7 @@ from __future__ import annotations
 import json
 import math
 from collections.abc import Iterator, Mapping
-from contextlib import contextmanager
+from contextlib import contextmanager, nullcontext
 from contextvars import ContextVar
 from dataclasses import dataclass, field
 from functools import cache
@@ -388,6 +388,13 @@ def record_calibration(record) -> Calibration | None:
     if controller is None or getattr(controller, "hand_model", None):
         return None
     return own_hand_calibration(str(getattr(controller, "engine", "")))
+
+
+def use_own(calibration: Calibration | None):
+    """:func:`use_calibration` of ``calibration`` where one is given (a hand's own, from
+    :func:`record_calibration`), else the coefficients in force left as they are: never the
+    shipped ones over a hand calibration the user put in force."""
+    return use_calibration(calibration) if calibration is not None else nullcontext()
 
 
 @contextmanager

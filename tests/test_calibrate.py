@@ -357,11 +357,8 @@ def test_the_cross_check_reads_our_mujoco_hand_with_its_own_coefficients(monkeyp
     coefficients read as a sphere is a torus to its own. A grasp made with another hand model,
     or under a hand calibration the user put in force, is read as before."""
     from tactile_bullet.learn import doubt
-    from tactile_bullet.perception.shape_model import (
-        calibration_in_force,
-        own_hand_calibration,
-        record_calibration,
-    )
+    from tactile_bullet.perception.shape_model import calibration_in_force
+    from tactile_bullet.realhand.hand_calibration import own_hand_calibration, record_calibration
     from tactile_bullet.records import ControllerSettings, Pose
     from tactile_bullet.sim.grasp import simulate_grasp
 
@@ -404,7 +401,7 @@ def test_grasps_shape_fit_detail_reads_our_mujoco_hand_as_the_cross_check_does(c
 
 
 def test_the_shipped_mujoco_coefficients_are_a_valid_hand_calibration():
-    from tactile_bullet.perception.shape_model import OWN_HAND_FILES, own_hand_calibration
+    from tactile_bullet.realhand.hand_calibration import OWN_HAND_FILES, own_hand_calibration
 
     assert set(OWN_HAND_FILES) == {"mujoco"} and own_hand_calibration("bullet") is None
     cal = own_hand_calibration("mujoco")
@@ -412,13 +409,13 @@ def test_the_shipped_mujoco_coefficients_are_a_valid_hand_calibration():
 
 
 def test_a_damaged_own_hand_file_is_refused_not_used(monkeypatch):
-    from tactile_bullet.perception import shape_model
+    from tactile_bullet.realhand import hand_calibration as own
 
-    monkeypatch.setitem(shape_model.OWN_HAND_FILES, "mujoco", "data/default_model.json")
-    shape_model.own_hand_calibration.cache_clear()
+    monkeypatch.setitem(own.OWN_HAND_FILES, "mujoco", "data/default_model.json")
+    own.own_hand_calibration.cache_clear()
     try:
         with pytest.raises(UsageError, match="damaged"):
-            shape_model.own_hand_calibration("mujoco")
+            own.own_hand_calibration("mujoco")
     finally:
         monkeypatch.undo()
-        shape_model.own_hand_calibration.cache_clear()
+        own.own_hand_calibration.cache_clear()

@@ -357,7 +357,8 @@ def test_the_hypotheses_are_fitted_with_the_hands_own_coefficients(monkeypatch):
     with the shipped ones."""
     from tactile_bullet.learn.robust import angles_for_shape_fit
     from tactile_bullet.perception.shape_fit import fit_family
-    from tactile_bullet.perception.shape_model import load_calibration, own_hand_calibration
+    from tactile_bullet.perception.shape_model import load_calibration
+    from tactile_bullet.realhand.hand_calibration import own_hand_calibration
     from tactile_bullet.sim.grasp import simulate_grasp
 
     first = Pose((0.004, 0.0, 0.0))

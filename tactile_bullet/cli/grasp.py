@@ -156,7 +156,11 @@ def run(args: argparse.Namespace) -> int:
 
         plot_grasp_signature(record, outputs["plot"])
     from ..perception.shape_fit import shape_fit_summary
+    from ..perception.shape_model import use_own
+    from ..realhand.hand_calibration import record_calibration
 
+    with use_own(record_calibration(record)):  # our MuJoCo hand: its own, as the cross-check
+        fit_block = shape_fit_summary(record)
     doc = {
         "shape": record.shape,
         "params": dict(record.params),
@@ -171,7 +175,7 @@ def run(args: argparse.Namespace) -> int:
         "flags": list(record.flags),
         "signature": signature,
         "temporal": _temporal_block(record),
-        "shape_fit": shape_fit_summary(record),
+        "shape_fit": fit_block,
         "outputs": {k: str(v) for k, v in outputs.items()},
     }
     if video is not None:

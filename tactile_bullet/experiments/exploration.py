@@ -62,7 +62,7 @@ OUTCOMES = 1
 keeps a decision near a second on MuJoCo (docs/exploration.md)."""
 OWN_HAND_HYPOTHESES = False
 """Fit the hypotheses to the first grasp with the coefficients of the hand that made it where
-the package has them (our MuJoCo hand: ``shape_model.record_calibration``), as the doubt's
+the package has them (our MuJoCo hand: ``hand_calibration.record_calibration``), as the doubt's
 cross-check reads it. Off: declared and judged on seed 3 of the ``active`` protocol, it gained
 3 objects after three grasps and 2 with the stopping rule but lost 2 border objects after two
 grasps, beyond the declared limit of one (docs/exploration.md); the hypotheses are fitted with
@@ -269,7 +269,8 @@ def hypotheses(model, grasps: Sequence[Grasp], answer: Mapping[str, Any],
     :data:`OWN_HAND_HYPOTHESES`)."""
     from ..learn.robust import angles_for_shape_fit
     from ..perception.shape_fit import fit_family, fitted_shapes
-    from ..perception.shape_model import record_calibration, use_own
+    from ..perception.shape_model import use_own
+    from ..realhand.hand_calibration import record_calibration
 
     modelled = set(fitted_shapes())
     ranked = sorted(answer["posterior"].items(), key=lambda kv: -kv[1])

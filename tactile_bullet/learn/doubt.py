@@ -70,7 +70,7 @@ def cross_check_applies(classes: Sequence[str], classifier: str) -> bool:
 
 OWN_HAND_COEFFICIENTS = True
 """The cross-check reads a grasp of our own MuJoCo hand with that hand's coefficients
-(``shape_model.record_calibration``), not Bullet's; judged on the tenth replicate
+(``realhand.hand_calibration.record_calibration``), not Bullet's; judged on the tenth replicate
 (docs/robustness.md). False: every grasp with the coefficients in force, as before."""
 
 
@@ -79,7 +79,7 @@ def cross_check_names(records: Sequence, classes: Sequence[str]) -> np.ndarray:
     each read as the coefficients in force were fitted (:func:`.robust.angles_for_shape_fit`),
     a grasp of our own MuJoCo hand with that hand's coefficients where no hand calibration is
     in force (:data:`OWN_HAND_COEFFICIENTS`)."""
-    from ..perception.shape_model import record_calibration
+    from ..realhand.hand_calibration import record_calibration
 
     groups: dict[int, tuple] = {}  # one batch of fits per set of coefficients
     for i, rec in enumerate(records):

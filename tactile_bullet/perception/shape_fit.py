@@ -558,17 +558,15 @@ def shape_fit_summary(record) -> dict | None:
     """The ``shape_fit`` block of ``grasp --json`` for one record ({"shape", "params",
     "offset_m", "residual", "scores"}), or None where its angles cannot be fitted or the grasp
     touched too little (``contact.nothing_to_identify``: the angles of fingers that closed on
-    air would still fit some family best, and a shape name there would be a guess). A grasp
-    of our own MuJoCo hand is read with that hand's coefficients
-    (``shape_model.record_calibration``), as the doubt's cross-check reads it, so the two agree."""
+    air would still fit some family best, and a shape name there would be a guess). Read with
+    the coefficients in force (``grasp`` puts our MuJoCo hand's own in force for its grasps,
+    as the doubt's cross-check reads them)."""
     from ..learn.robust import angles_for_shape_fit
     from .contact import nothing_to_identify
-    from .shape_model import record_calibration, use_own
 
     if nothing_to_identify(record) is not None:
         return None
-    try:  # our MuJoCo hand with its own coefficients, as the cross-check reads it
-        with use_own(record_calibration(record)):
-            return fit_shape(angles_for_shape_fit(record)).summary()
+    try:
+        return fit_shape(angles_for_shape_fit(record)).summary()
     except UsageError:
         return None

@@ -350,50 +350,10 @@ def calibration_in_force() -> Calibration | None:
     return _ACTIVE.get()
 
 
-OWN_HAND_FILES = {"mujoco": "data/shape_fit_mujoco.toml"}
-"""Per engine, the coefficients of the package's own hand there, where they differ from the
-shipped ones (fitted on Bullet's hand): ``tactile-bullet calibrate`` on the robustness
-matrix's MuJoCo training set (docs/robustness.md, the tenth replicate's declaration)."""
-
-
-@cache
-def own_hand_calibration(engine: str) -> Calibration | None:
-    """The coefficients of the package's own hand on ``engine`` (None: the shipped ones): the
-    ``[coefficients]`` table of a ``calibrate`` file, checked as any calibration is (a damaged
-    file is refused, never used)."""
-    name = OWN_HAND_FILES.get(engine)
-    if name is None:
-        return None
-    import tomllib
-
-    try:
-        doc = tomllib.loads(resources.files("tactile_bullet").joinpath(name).read_text())
-        cal = Calibration.from_dict(doc["coefficients"], name)
-        angles = doc.get("report", {}).get("angles", "raw")
-    except (OSError, ValueError, KeyError, TypeError, AttributeError) as exc:
-        raise UsageError(f"{name} is missing or damaged ({exc}); reinstall tactile-bullet"
-                         ) from None
-    from dataclasses import replace
-
-    return replace(cal, angles=angles)
-
-
-def record_calibration(record) -> Calibration | None:
-    """The coefficients that read ``record``'s hand, where the package has its own for it:
-    a grasp of our hand on an engine in :data:`OWN_HAND_FILES` (no ``--hand-model``), with no
-    hand calibration in force. None otherwise (the coefficients in force, or the shipped)."""
-    if calibration_in_force() is not None:
-        return None
-    controller = getattr(record, "controller", None)
-    if controller is None or getattr(controller, "hand_model", None):
-        return None
-    return own_hand_calibration(str(getattr(controller, "engine", "")))
-
-
 def use_own(calibration: Calibration | None):
     """:func:`use_calibration` of ``calibration`` where one is given (a hand's own, from
-    :func:`record_calibration`), else the coefficients in force left as they are: never the
-    shipped ones over a hand calibration the user put in force."""
+    ``realhand.hand_calibration.record_calibration``), else the coefficients in force left as
+    they are: never the shipped ones over a hand calibration the user put in force."""
     return use_calibration(calibration) if calibration is not None else nullcontext()
 
 

@@ -34,13 +34,14 @@ import math
 import os
 from collections.abc import Mapping
 from dataclasses import dataclass, replace
+from functools import cache
 from pathlib import Path
 
 import numpy as np
 
 from ..errors import UsageError
 from ..files import read_toml, write_bytes_atomic
-from ..perception.shape_model import Calibration, load_calibration
+from ..perception.shape_model import Calibration, calibration_in_force, load_calibration
 
 VERSION = 1
 WHAT = "calibration file"
@@ -164,6 +165,43 @@ def load(path: str | os.PathLike) -> HandCalibration:
         raise UsageError(f"{where}: report.angles must be raw or zeroed, got {angles!r}")
     cal = replace(cal, angles=angles)
     return HandCalibration(cal, doc["hand"], doc["data"], dict(counts), dict(doc["report"]))
+
+
+OWN_HAND_FILES = {"mujoco": "data/shape_fit_mujoco.toml"}
+"""Per engine, the calibration file of the package's own hand there, where its coefficients
+differ from the shipped ones (fitted on Bullet's hand): ``tactile-bullet calibrate`` on the
+robustness matrix's MuJoCo training set (docs/robustness.md, the tenth replicate's
+declaration)."""
+
+
+@cache
+def own_hand_calibration(engine: str) -> Calibration | None:
+    """The coefficients of the package's own hand on ``engine`` (None: the shipped ones), read
+    and checked as any hand calibration file is (:func:`load`); a damaged file is refused in
+    one line, never used."""
+    name = OWN_HAND_FILES.get(engine)
+    if name is None:
+        return None
+    from importlib import resources
+
+    try:
+        with resources.as_file(resources.files("tactile_bullet").joinpath(name)) as path:
+            return load(path).calibration
+    except UsageError as exc:
+        raise UsageError(f"{name} is missing or damaged ({exc}); reinstall tactile-bullet"
+                         ) from None
+
+
+def record_calibration(record) -> Calibration | None:
+    """The coefficients that read ``record``'s hand, where the package has its own for it:
+    a grasp of our hand on an engine in :data:`OWN_HAND_FILES` (no ``--hand-model``), with no
+    hand calibration in force. None otherwise (the coefficients in force, or the shipped)."""
+    if calibration_in_force() is not None:
+        return None
+    controller = getattr(record, "controller", None)
+    if controller is None or getattr(controller, "hand_model", None):
+        return None
+    return own_hand_calibration(str(getattr(controller, "engine", "")))
 
 
 def checked_coefficients(coefficients: Mapping, where: str) -> Calibration:

@@ -47,6 +47,7 @@ def _summaries(fits) -> list:
 @pytest.fixture()
 def fresh_cache(monkeypatch):
     monkeypatch.setattr(shape_fit, "_FITS", type(shape_fit._FITS)())
+    monkeypatch.setattr(shape_fit, "_NAMES", type(shape_fit._NAMES)())
 
 
 FORKS = pytest.mark.skipif(not sys.platform.startswith("linux"), reason="fit_many forks on Linux")
@@ -122,3 +123,33 @@ def test_a_worker_that_dies_leaves_its_fits_to_this_process(fresh_cache, monkeyp
     shape_fit._FITS.clear()
     monkeypatch.setattr(fit_batch, "_fit_chunk", _dying_chunk)
     assert _summaries(fit_batch.fit_many(angles, FAMILIES, workers=2)) == expected
+
+
+@FORKS
+@pytest.mark.parametrize("workers", [1, 2])
+def test_the_cross_checks_names_are_the_families_the_whole_fit_names(fresh_cache, workers):
+    """fit_names skips the sizes where the grid decides the family: the names must be those of
+    the whole fits, on grasps the grid decides and on grasps it leaves open (both occur)."""
+    angles = _angles(fit_batch.MIN_PARALLEL + 8)
+    names = fit_batch.fit_names(angles, FAMILIES, workers=workers)
+    cal = active_calibration()
+    on_grid = [shape_fit.cached_fit(a, FAMILIES, cal) is None for a in angles]
+    assert 0 < sum(on_grid) < len(angles), "both branches exercised"
+    shape_fit._FITS.clear()
+    assert names == [shape_fit.fit_shape(a, FAMILIES).shape for a in angles]
+
+
+def test_a_family_decided_on_the_grid_is_not_kept_as_a_whole_fit(fresh_cache):
+    """grasp's shape-fit block reads the fit's sizes after the cross-check: a name decided on
+    the grid must not stand in for them."""
+    cal = active_calibration()
+    for a in _angles(12):
+        found = shape_fit.name_or_fit(a, FAMILIES)
+        if isinstance(found, str):
+            assert shape_fit.cached_fit(a, FAMILIES, cal) is None
+            assert shape_fit.cached_name(a, FAMILIES, cal) == found
+            whole = shape_fit.fit_shape(a, FAMILIES)
+            assert whole.shape == found and whole.params  # the sizes, computed now
+            assert shape_fit.name_or_fit(a, FAMILIES) is whole  # and read back after
+            return
+    pytest.fail("no grasp of 12 was decided on the grid")

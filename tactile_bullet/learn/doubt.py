@@ -95,7 +95,7 @@ def _cross_check_batch(records: Sequence, classes: Sequence[str], calibration) -
     """:func:`cross_check_names` of records read with one set of coefficients (None: those
     in force)."""
     from ..errors import UsageError
-    from ..perception.fit_batch import fit_many
+    from ..perception.fit_batch import fit_names
     from ..perception.shape_model import use_own
     from .robust import angles_for_shape_fit
 
@@ -108,10 +108,11 @@ def _cross_check_batch(records: Sequence, classes: Sequence[str], calibration) -
                 readable.append(i)
             except UsageError:  # no angles to read: no second opinion
                 pass
-        # each grasp's fit is kept: asked again (another fold), it is not redone
-        fits = fit_many(angles, families, desc="shape fit (second opinion)")
+        # each grasp's answer is kept: asked again (another fold), it is not redone; only the
+        # family is read, so a fit's sizes are computed only where the grid leaves it open
+        found = fit_names(angles, families, desc="shape fit (second opinion)")
     out = np.full(len(records), "", dtype=object)
-    out[readable] = [fit.shape for fit in fits]
+    out[readable] = found
     return out
 
 

@@ -25,7 +25,14 @@ import numpy as np
 
 from ..console import tick
 from .family_fit import ShapeFit, measured_features
-from .shape_fit import cached_fit, fit_shape, keep_fit
+from .shape_fit import (
+    cached_fit,
+    cached_name,
+    fit_shape,
+    keep_fit,
+    keep_name,
+    name_or_fit,
+)
 from .shape_model import Calibration, active_calibration
 
 MIN_PARALLEL = 32
@@ -36,9 +43,9 @@ CHUNK = 16
 """Fits per task handed to a worker: small enough that progress moves every ~0.3 s and the
 last tasks of the two workers end close together."""
 
-_JOB: tuple[tuple[str, ...], Calibration] | None = None
-"""The families and coefficients of the batch being fitted, set before the workers fork (they
-inherit it, so the grids and the coefficients are not pickled per task)."""
+_JOB: tuple[tuple[str, ...], Calibration, Callable] | None = None
+"""The families, coefficients and function of the batch being fitted, set before the workers
+fork (they inherit it, so the grids and the coefficients are not pickled per task)."""
 
 
 def usable_cores() -> int:
@@ -105,9 +112,9 @@ def on_cores(task: Callable[[list[int]], list], n: int, least: int, chunk: int) 
     return out
 
 
-def _fit_chunk(rows: np.ndarray) -> list[ShapeFit]:
-    families, cal = _JOB
-    return [fit_shape(a, families, cal) for a in rows]
+def _fit_chunk(rows: np.ndarray) -> list:
+    families, cal, compute = _JOB
+    return [compute(a, families, cal) for a in rows]
 
 
 def fit_many(
@@ -121,14 +128,42 @@ def fit_many(
     uncached ones split over ``workers`` processes (default: :func:`usable_cores`). Every fit
     is equal to the one ``fit_shape`` gives in this process, and is cached as it would be.
     Progress is reported as ``desc``."""
+    return _batch(angles, families, calibration, desc, workers, cached_fit, fit_shape)
+
+
+def fit_names(
+    angles: Sequence,
+    families: Sequence[str],
+    calibration: Calibration | None = None,
+    desc: str = "shape fits",
+    workers: int | None = None,
+) -> list[str]:
+    """The family :func:`.shape_fit.fit_shape` names for each (3, 4) final angles, in order,
+    as :func:`fit_many` gives them, but with a fit's sizes only computed where the grid does
+    not decide the family (:func:`.shape_fit.name_or_fit`): what the doubt's cross-check
+    reads."""
+    found = _batch(angles, families, calibration, desc, workers, cached_name, name_or_fit)
+    return [f if isinstance(f, str) else f.shape for f in found]
+
+
+def _keep(features, names, cal, found):
+    """Keep a worker's answer in this process's caches, as computing it here would have."""
+    if isinstance(found, str):
+        return keep_name(features, names, cal, found, features=True)
+    return keep_fit(features, names, cal, found, features=True)
+
+
+def _batch(angles, families, calibration, desc, workers, lookup, compute) -> list:
+    """``compute(angles, families, cal)`` of each of ``angles`` not found by ``lookup``,
+    the uncached ones split over forked workers (see :func:`fit_many`)."""
     global _JOB
     names = tuple(dict.fromkeys(str(f) for f in families))
     cal = active_calibration() if calibration is None else calibration
     rows = [np.asarray(a, dtype=float) for a in angles]
     # bad angles fail here, in this process, as fit_shape would; each row's features once
     features = [measured_features(a) for a in rows]
-    out: list[ShapeFit | None] = [cached_fit(f, names, cal, features=True) for f in features]
-    todo = [i for i, fit in enumerate(out) if fit is None]
+    out: list = [lookup(f, names, cal, features=True) for f in features]
+    todo = [i for i, found in enumerate(out) if found is None]
     workers = usable_cores() if workers is None else workers
     workers = min(workers, -(-len(todo) // CHUNK))
     done = len(rows) - len(todo)
@@ -138,16 +173,16 @@ def fit_many(
         from concurrent.futures.process import BrokenProcessPool
 
         first = todo.pop(0)  # fitted here first: the grids are built before the fork
-        out[first] = fit_shape(rows[first], names, cal)
+        out[first] = compute(rows[first], names, cal)
         done += 1
         chunks = [todo[k : k + CHUNK] for k in range(0, len(todo), CHUNK)]
-        _JOB = (names, cal)
+        _JOB = (names, cal, compute)
         pool = ProcessPoolExecutor(workers, mp_context=multiprocessing.get_context("fork"))
         try:
             results = pool.map(_fit_chunk, [np.stack([rows[i] for i in c]) for c in chunks])
-            for chunk, fits in zip(chunks, results, strict=True):
-                for i, fit in zip(chunk, fits, strict=True):
-                    out[i] = keep_fit(features[i], names, cal, fit, features=True)
+            for chunk, found in zip(chunks, results, strict=True):
+                for i, value in zip(chunk, found, strict=True):
+                    out[i] = _keep(features[i], names, cal, value)
                 done += len(chunk)
                 tick(desc, done, len(rows))
         except BrokenProcessPool:  # a worker died (killed, out of memory): the rest here
@@ -157,7 +192,7 @@ def fit_many(
             pool.shutdown(wait=True, cancel_futures=True)
         todo = [i for i in todo if out[i] is None]
     for i in todo:
-        out[i] = fit_shape(rows[i], names, cal)
+        out[i] = compute(rows[i], names, cal)
         done += 1
         tick(desc, done, len(rows))
-    return out  # type: ignore[return-value]
+    return out

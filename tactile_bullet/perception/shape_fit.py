@@ -281,6 +281,13 @@ def _fit(measured: np.ndarray, fams: Sequence[_Family], cal: Calibration) -> dic
     """Every family's fit at once: the pattern search runs the families (each from its
     ``STARTS`` best grid points) in lockstep so that each round is one pass of the finger chain
     over all their candidates."""
+    return _refined(measured, *_grid_stage(measured, fams, cal), cal)
+
+
+def _grid_stage(measured: np.ndarray, fams: Sequence[_Family], cal: Calibration) -> tuple:
+    """The search's starts, each [family, point, cost, step, moves, prediction] with its cost
+    as the search computes every later point's, and the indices of those near enough to the
+    best to be refined (:data:`REFINE_MARGIN`)."""
     state = []
     for fam in fams:
         starts = fam.starts(fam.grid_costs(measured, cal))
@@ -293,6 +300,12 @@ def _fit(measured: np.ndarray, fams: Sequence[_Family], cal: Calibration) -> dic
     # only starts whose grid score is near the best one's are worth refining
     scores = [e[2] + cal.penalty * len(e[0].names) for e in state]
     near = [k for k, sc in enumerate(scores) if sc <= min(scores) + REFINE_MARGIN]
+    return state, near
+
+
+def _refined(measured: np.ndarray, state: list, near: list[int], cal: Calibration) -> dict:
+    """Each family's fit from the grid stage's starts: the ``near`` ones refined (pattern
+    search, then :func:`_polish`), the others kept at their grid point."""
     for _ in range(REFINE_ROUNDS):
         parts = []
         for k in near:
@@ -490,6 +503,66 @@ def fit_shape(
     return keep_fit(measured, names, cal, out, features=True)
 
 
+def name_or_fit(
+    angles,
+    families: Sequence[str] = THESIS_SHAPES,
+    calibration: Calibration | None = None,
+) -> str | ShapeFit:
+    """The family :func:`fit_shape` names for final angles (3, 4), where only that is asked
+    (the doubt's cross-check): the family's name where the grid stage decides it, else the
+    whole fit (kept, as :func:`fit_shape` keeps it).
+
+    The grid decides it where every start near enough to the best to be refined is of one
+    family: the search only lowers the scores it refines, and every other family's score is
+    already more than :data:`REFINE_MARGIN` above that family's, so :func:`fit_shape` names
+    that family too, whatever the search finds. Its sizes, which the refining is for, are
+    then not computed: a third to nine tenths of grasps, at about a tenth of a fit's cost
+    (docs/performance.md).
+    """
+    measured = measured_features(angles)
+    names = list(dict.fromkeys(families))
+    if not names:
+        raise UsageError("shape-fit needs at least one shape family")
+    cal = active_calibration() if calibration is None else calibration
+    hit = cached_fit(measured, names, cal, features=True)
+    if hit is not None:
+        return hit
+    key = _key(measured, names, cal, features=True)
+    named = _NAMES.get(key)
+    if named is not None and named[0] is cal:
+        return named[1]
+    state, near = _grid_stage(measured, [_resolve_family(n) for n in names], cal)
+    decided = {state[k][0].shape.name for k in near}
+    if len(decided) == 1:
+        return keep_name(measured, names, cal, decided.pop(), features=True)
+    fits = _refined(measured, state, near, cal)
+    out = ShapeFit(min(fits, key=lambda n: fits[n].score), fits)
+    return keep_fit(measured, names, cal, out, features=True)
+
+
+def keep_name(
+    angles, families: Sequence[str], cal: Calibration, name: str, features: bool = False
+) -> str:
+    """Keep ``name`` as :func:`name_or_fit`'s answer (decided on the grid, perhaps in another
+    process) for these angles, families and coefficients; returns it."""
+    _NAMES[_key(angles, families, cal, features)] = (cal, name)
+    if len(_NAMES) > FIT_CACHE:
+        _NAMES.popitem(last=False)
+    return name
+
+
+def cached_name(
+    angles, families: Sequence[str], cal: Calibration, features: bool = False
+) -> str | None:
+    """The family :func:`fit_shape` names, where this process knows it already (a whole fit
+    kept, or a name :func:`name_or_fit` decided on the grid); None where it does not."""
+    fit = cached_fit(angles, families, cal, features)
+    if fit is not None:
+        return fit.shape
+    hit = _NAMES.get(_key(angles, families, cal, features))
+    return hit[1] if hit is not None and hit[0] is cal else None
+
+
 def _key(angles, families: Sequence[str], cal: Calibration, features: bool) -> tuple:
     measured = angles if features else measured_features(angles)
     return (measured.tobytes(), tuple(dict.fromkeys(families)), id(cal))
@@ -525,6 +598,8 @@ grasp's fit is computed once per process however often it is asked for (``predic
 ``predict_proba``, the doubt calibration's folds, the cross-check of the same records)."""
 
 _FITS: OrderedDict = OrderedDict()
+_NAMES: OrderedDict = OrderedDict()
+"""Families :func:`name_or_fit` decided on the grid alone, keyed as :data:`_FITS`."""
 
 
 def predicted_angles(

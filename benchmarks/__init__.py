@@ -44,6 +44,8 @@ NEEDS: dict[str, str] = {
     "border and unseen-poses at full scale)",
     "active_switch": "no dataset; explores the active protocol's objects twice, with a "
     "declared planner rule off and on (about 10 minutes at full scale with both other hands)",
+    "bench_cross_check": "labelled datasets (`tactile-bullet generate --preset modified` or "
+    "thesis, a robustness matrix's sets); seconds to a minute each",
     "own_hand_cross_check": "labelled datasets (--data, repeatable; a robustness matrix's "
     "robust-mujoco-test-rK set for the tenth replicate's judgement); seconds each",
     "torus_rule_design": "two or more full-scale robustness matrix runs' --out folders with "

@@ -242,7 +242,7 @@ def _known_fit_angles(known: Sequence) -> np.ndarray:
 
 def _calibrated_shape_fit_way(known: Sequence, y: np.ndarray) -> Way | str:
     """The calibrated shape fit as a way, or why it does not apply."""
-    from ..perception.fit_batch import fit_many
+    from ..perception.fit_batch import fit_names
     from ..perception.hand_fit import fit_hand
     from ..perception.shape_fit import fitted_shapes
 
@@ -257,7 +257,7 @@ def _calibrated_shape_fit_way(known: Sequence, y: np.ndarray) -> Way | str:
         if len(set(y[tr].tolist())) >= 2:
             cal = fit_hand(list(angles[tr]), list(y[tr]), strengths=CV_STRENGTHS,
                            folds=CV_INNER_FOLDS).calibration  # fmt: skip
-        return np.array([fit.shape for fit in fit_many(angles[te], families, cal)])
+        return np.array(fit_names(angles[te], families, cal))
 
     return Way("calibrated-shape-fit", predict)
 

@@ -42,6 +42,8 @@ NEEDS: dict[str, str] = {
     "cylinder_cone_fit": "no dataset; simulates four cylinders (seconds)",
     "active_flips": "no dataset; explores the active protocol's objects (about 2 minutes for "
     "border and unseen-poses at full scale)",
+    "active_fusion": "an `active` run's --out folder written since its rows keep each grasp "
+    "(`tactile-bullet benchmark --protocol active --out DIR`); seconds",
     "active_switch": "no dataset; explores the active protocol's objects twice, with a "
     "declared planner rule off and on (about 10 minutes at full scale with both other hands)",
     "bench_cross_check": "labelled datasets (`tactile-bullet generate --preset modified` or "

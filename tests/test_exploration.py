@@ -377,3 +377,30 @@ def test_the_hypotheses_are_fitted_with_the_hands_own_coefficients(monkeypatch):
             assert h.pose.offset == pytest.approx((fit.offset[0], 0.0, fit.offset[1]))
         sizes.append([h.params for h in hyps])
     assert sizes[0] != sizes[1]  # the two hands' coefficients fit other objects
+
+
+@pytest.mark.slow
+def test_an_active_row_keeps_each_grasp_so_its_table_can_be_fused_again():
+    """The row's ``made`` grasps fused again by the shipped rule give back its ``right``
+    table (what benchmarks/active_fusion.py checks before scoring another rule)."""
+    import sys
+    from pathlib import Path
+
+    from tactile_bullet.experiments.active import GRASPS, score_column
+    from tactile_bullet.learn.default import default_model
+
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
+    from active_fusion import RULES, score
+
+    objects = [("cylinder", {"radius": 0.035}, Pose((0.0, 0.0, 0.0), 0.0)),
+               ("sphere", {"radius": 0.05}, Pose((0.008, 0.0, 0.0), math.radians(10.0)))]
+    row, _ = score_column(objects, ControllerSettings(engine="mujoco"), default_model(),
+                          "random", seed=1)  # fmt: skip
+    row = json.loads(json.dumps(row))  # as active.json keeps it
+    assert [m["truth"] for m in row["made"]] == ["cylinder", "sphere"]
+    for made in row["made"]:
+        assert len(made["grasps"]) == GRASPS
+        assert set(made["grasps"][0]["probabilities"]) == set(default_model().classes)
+        assert made["grasps"][0]["pose"] != made["grasps"][1]["pose"]  # random moves it
+    after, stop, right = score(row, RULES["product"])
+    assert right == row["right"] and after == row["after"] and stop == row["with_stopping"]

@@ -171,11 +171,12 @@ def score_column(objects: Sequence[tuple], controller: ControllerSettings, model
     """One strategy (``planned``, ``random``, ``repeat``, each optionally ``+simulated``) on one
     column's objects, each explored to ``GRASPS`` grasps: its row (``strategy``, ``objects``,
     ``after``: the share right after 1..GRASPS grasps, ``with_stopping``, ``mean_grasps``,
-    ``right``: per object, right after each count) and each planning decision's seconds."""
+    ``right``: per object, right after each count; ``made``: per object, its true family and
+    each grasp's pose and own answer) and each planning decision's seconds."""
     from .exploration import SimulationCache, explore, settled
 
     after = np.zeros((len(objects), GRASPS), bool)
-    stop_right, stop_used, seconds = [], [], []
+    stop_right, stop_used, seconds, made = [], [], [], []
     how, _, fusion = strategy.partition("+")
     for i, (shape, params, first, *family) in enumerate(objects):
         truth = family[0] if family else shape
@@ -189,11 +190,21 @@ def score_column(objects: Sequence[tuple], controller: ControllerSettings, model
         stop = next((k for k, f in enumerate(fused) if settled(f)), len(fused) - 1)
         stop_right.append(fused[stop]["shape"] == truth)
         stop_used.append(stop + 1)
+        made.append({"truth": truth, "grasps": [_grasp_doc(g) for g in doc["grasps"]]})
     row = {"strategy": strategy, "objects": len(objects),
            "after": [float(v) for v in after.mean(axis=0)],
            "with_stopping": float(np.mean(stop_right)),
            "mean_grasps": float(np.mean(stop_used))}  # fmt: skip
-    return row | {"right": after.tolist(), "stop_right": stop_right}, seconds
+    return row | {"right": after.tolist(), "stop_right": stop_right, "made": made}, seconds
+
+
+def _grasp_doc(entry: Mapping[str, Any]) -> dict[str, Any]:
+    """What a row keeps of one grasp: its pose and its own answer (shape, probabilities,
+    unknown, ambiguous, renamed_from), so that another fusion of the same grasps can be scored
+    offline (``benchmarks/active_fusion.py``) without simulating them again."""
+    answer = entry["answer"]
+    keep = ("shape", "probabilities", "unknown", "ambiguous", "renamed_from")
+    return {"pose": entry["pose"], **{k: answer.get(k) for k in keep}}
 
 
 def table_text(rows: Sequence[Mapping[str, Any]]) -> str:

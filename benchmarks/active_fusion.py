@@ -1,0 +1,115 @@
+"""Other ways of fusing the ``active`` protocol's grasps, scored offline on a run's own grasps.
+
+An ``active`` run (``tactile-bullet benchmark --protocol active --out OUT``) keeps, for every
+object and next-pose strategy, each grasp's pose and own answer (``rows[].made``). This script
+fuses them again, first with the shipped rule (``exploration.fused_answer``: the product of the
+grasps' smoothed probabilities), which must give back the run's own ``right`` table (it stops
+otherwise), then with each alternative rule, and prints the share of objects right after 1, 2
+and 3 grasps per column and strategy, and with the stopping rule. The alternatives are written
+here, not in the package: a rule picked from these figures is picked on these objects, and a
+run on other objects (another ``--seed``) is what judges it.
+
+Rules: ``product`` (shipped), ``vote`` (each grasp's named shape counts one, ties broken by
+the summed probabilities: two unsure misreads outvote one sure right read, or the other way
+round, by count alone) and ``surest`` (the answer of the grasp whose best probability is
+highest, alone).
+
+Usage: python benchmarks/active_fusion.py OUT [OUT ...]
+"""
+
+from __future__ import annotations
+
+import json
+import sys
+from collections.abc import Callable, Sequence
+from pathlib import Path
+from types import SimpleNamespace
+
+import numpy as np
+from _report import provenance  # first: this checkout ahead of an installed copy
+
+from tactile_bullet.experiments.exploration import fused_answer, probabilities, settled
+
+
+def _product(model, answers: Sequence[dict]) -> dict:
+    return fused_answer(model, answers)
+
+
+def _surest(model, answers: Sequence[dict]) -> dict:
+    rows = [probabilities(model, a) for a in answers]
+    sure = int(np.argmax([r.max() for r in rows]))
+    return fused_answer(model, [answers[sure]])
+
+
+def _vote(model, answers: Sequence[dict]) -> dict:
+    classes = list(model.classes)
+    counts = np.zeros(len(classes))
+    summed = np.zeros(len(classes))
+    for a in answers:
+        p = probabilities(model, a)
+        counts[int(np.argmax(p))] += 1
+        summed += p
+    best = classes[int(np.lexsort((-summed, -counts))[0])]
+    return {
+        "shape": best,
+        "ambiguous": None if counts.max() * 2 > len(answers) else [best],
+        "unknown": sum(bool(a.get("unknown")) for a in answers) * 2 >= len(answers),
+    }
+
+
+RULES: dict[str, Callable] = {"product": _product, "vote": _vote, "surest": _surest}
+
+
+def _answers(made: dict) -> list[dict]:
+    return [{"shape": g["shape"], "probabilities": g["probabilities"], "unknown": g["unknown"],
+             "ambiguous": g["ambiguous"], "renamed_from": g.get("renamed_from")}
+            for g in made["grasps"]]  # fmt: skip
+
+
+def score(row: dict, rule: Callable) -> tuple[list[float], float, list[list[bool]]]:
+    """(share right after each count, share right with the stopping rule, per object right
+    after each count) of one row's grasps fused by ``rule``."""
+    after, stopped, right = [], [], []
+    for made in row["made"]:
+        answers = _answers(made)
+        model = SimpleNamespace(classes=list(answers[0]["probabilities"] or {}))
+        fused = [rule(model, answers[: k + 1]) for k in range(len(answers))]
+        right.append([f["shape"] == made["truth"] for f in fused])
+        stop = next((k for k, f in enumerate(fused) if settled(f)), len(fused) - 1)
+        stopped.append(fused[stop]["shape"] == made["truth"])
+    after = np.mean(np.array(right, float), axis=0).tolist()
+    return after, float(np.mean(stopped)), right
+
+
+def main(argv: list[str]) -> int:
+    if not argv:
+        print(__doc__.strip().splitlines()[-1])
+        return 2
+    provenance(argv)
+    for out in argv:
+        doc = json.loads((Path(out) / "active.json").read_text())
+        rows = [r for r in doc["rows"] if "made" in r]
+        if not rows:
+            print(f"{out}: no grasps kept (a run written before rows kept them)")
+            continue
+        for row in rows:
+            _, _, right = score(row, _product)
+            if right != [[bool(v) for v in r] for r in row["right"]]:
+                print(f"{out}: {row['column']} {row['strategy']}: the shipped rule does not "
+                      "give back the run's own table; stopping")  # fmt: skip
+                return 1
+        print(f"{out} (seed {doc['config'].get('seed')}): shipped rule reproduced on "
+              f"{len(rows)} rows")  # fmt: skip
+        print("column          strategy            rule      objects  1 grasp 2 grasps "
+              "3 grasps stopping")  # fmt: skip
+        for row in rows:
+            for name, rule in RULES.items():
+                after, stop, _ = score(row, rule)
+                cells = " ".join(f"{100 * v:7.1f}" for v in after)
+                print(f"{row['column']:15s} {row['strategy']:19s} {name:9s} "
+                      f"{len(row['made']):7d} {cells} {100 * stop:8.1f}")  # fmt: skip
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main(sys.argv[1:]))

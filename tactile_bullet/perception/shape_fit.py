@@ -490,15 +490,24 @@ def fit_shape(
     signature): it reads absolute angles, so scale separates sphere from torus and cylinder
     from hyperboloid, and a finger that closed to its limits is explained by the model.
     """
+    measured, names, cal = _inputs(angles, families, calibration)
+    hit = cached_fit(measured, names, cal, features=True)
+    if hit is not None:
+        return hit
+    return _kept(measured, names, cal, _fit(measured, [_resolve_family(n) for n in names], cal))
+
+
+def _inputs(angles, families: Sequence[str], calibration: Calibration | None) -> tuple:
+    """(measured features, the families once each, the coefficients) of a fit, checked."""
     measured = measured_features(angles)
     names = list(dict.fromkeys(families))
     if not names:
         raise UsageError("shape-fit needs at least one shape family")
-    cal = active_calibration() if calibration is None else calibration
-    hit = cached_fit(measured, names, cal, features=True)
-    if hit is not None:
-        return hit
-    fits = _fit(measured, [_resolve_family(n) for n in names], cal)
+    return measured, names, active_calibration() if calibration is None else calibration
+
+
+def _kept(measured, names: list[str], cal: Calibration, fits: dict) -> ShapeFit:
+    """The whole fit of every family, named by the best score, kept in the fit cache."""
     out = ShapeFit(min(fits, key=lambda n: fits[n].score), fits)
     return keep_fit(measured, names, cal, out, features=True)
 
@@ -519,25 +528,18 @@ def name_or_fit(
     then not computed: a third to nine tenths of grasps, at about a tenth of a fit's cost
     (docs/performance.md).
     """
-    measured = measured_features(angles)
-    names = list(dict.fromkeys(families))
-    if not names:
-        raise UsageError("shape-fit needs at least one shape family")
-    cal = active_calibration() if calibration is None else calibration
+    measured, names, cal = _inputs(angles, families, calibration)
     hit = cached_fit(measured, names, cal, features=True)
     if hit is not None:
         return hit
-    key = _key(measured, names, cal, features=True)
-    named = _NAMES.get(key)
-    if named is not None and named[0] is cal:
-        return named[1]
+    named = cached_name(measured, names, cal, features=True)
+    if named is not None:
+        return named
     state, near = _grid_stage(measured, [_resolve_family(n) for n in names], cal)
     decided = {state[k][0].shape.name for k in near}
     if len(decided) == 1:
         return keep_name(measured, names, cal, decided.pop(), features=True)
-    fits = _refined(measured, state, near, cal)
-    out = ShapeFit(min(fits, key=lambda n: fits[n].score), fits)
-    return keep_fit(measured, names, cal, out, features=True)
+    return _kept(measured, names, cal, _refined(measured, state, near, cal))
 
 
 def keep_name(

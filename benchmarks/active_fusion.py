@@ -85,10 +85,11 @@ def main(argv: list[str]) -> int:
     if not argv:
         print(__doc__.strip().splitlines()[-1])
         return 2
-    provenance(argv)
+    provenance()
     for out in argv:
         doc = json.loads((Path(out) / "active.json").read_text())
-        rows = [r for r in doc["rows"] if "made" in r]
+        # a +simulated row fused its later grasps by simulation, not by their own answers
+        rows = [r for r in doc["rows"] if "made" in r and "+" not in r["strategy"]]
         if not rows:
             print(f"{out}: no grasps kept (a run written before rows kept them)")
             continue

@@ -34,7 +34,7 @@ def main(argv: list[str]) -> int:
     if not argv:
         print(__doc__.strip().splitlines()[-1])
         return 2
-    provenance(argv)
+    provenance()
     for data in argv:
         records = read_records(data).records
         shapes = sorted({str(r.shape) for r in records})

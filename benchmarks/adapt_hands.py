@@ -9,7 +9,7 @@ k and draw: the way chosen, adapt's expected accuracy and 95% interval, the accu
 grasps, and each way's cross-validated accuracy; then per hand and k the means over draws.
 
 Usage: python benchmarks/adapt_hands.py --cache OUT/data [--counts 2,5] [--draws 5]
-       [--hands menagerie,gymnasium] [--calibrate]
+       [--hands menagerie,gymnasium] [--calibrate] [--replicate K]
 """
 
 from __future__ import annotations
@@ -33,13 +33,17 @@ def main() -> None:
     ap.add_argument("--counts", default="2,5")
     ap.add_argument("--draws", type=int, default=5)
     ap.add_argument("--hands", default="menagerie,gymnasium")
+    ap.add_argument("--replicate", type=int, default=0,
+                    help="the matrix run's --replicate: read its own draw of each hand's set")
     ap.add_argument("--calibrate", action="store_true",
                     help="adapt --calibrate: the calibrated shape fit among the ways")
     args = ap.parse_args()
     provenance()
     cache = Path(args.cache)
     for hand in args.hands.split(","):
-        folder = next(cache.glob(f"*-{hand}"))
+        suffix = f"-r{args.replicate}" if args.replicate else ""
+        folder = next(cache.glob(f"*-{hand}{suffix}"))
+        print(f"{hand}: {folder.name}", flush=True)
         grasps = R.replayed(load_set(folder)[0])
         labels = np.array([r.shape for r in grasps])
         for k in [int(c) for c in args.counts.split(",")]:

@@ -1,8 +1,9 @@
 """The default method with a few of a hand's own grasps: accuracy on hands written by others.
 
 For each hand column of a robustness matrix (``menagerie``, ``gymnasium``; its grasps replayed
-as a hand's CSV), ``--draws`` times: ``k`` grasps per shape are the user's known grasps, the
-rest the test. Two ways are scored, each as a user runs it:
+as a hand's CSV; the run's own draw of the set, ``-rK`` for ``--replicate K``), ``--draws``
+times: ``k`` grasps per shape are the user's known grasps, the rest the test. Two ways are
+scored, each as a user runs it:
 
 - ``train --known``: the default's method (descriptor and classifier of
   ``tactile_bullet/data/default_model.json``) trained on the default's training sets with the
@@ -42,13 +43,15 @@ def main() -> None:
     args = ap.parse_args()
     provenance()
     matrix = Path(args.matrix)
-    scale = json.loads((matrix / "robustness.json").read_text())["config"]["scale"]
+    config = json.loads((matrix / "robustness.json").read_text())["config"]
     cache = Path(args.cache) if args.cache else matrix / "data"
     hands = R.parse_hands(args.other_hand)
-    specs = R.set_specs(scale, hands, None)
+    # the run's own replicate of each hand's set (its training sets are every replicate's)
+    specs = R.set_specs(config["scale"], hands, None, replicate=int(config.get("replicate", 0)))
     meta = default_meta()
     base = [r for s in R.TRAININGS[meta["training"]] for r in load_set(cache / specs[s].name)[0]]
     for hand in hands:
+        print(f"{hand}: {specs[hand].name}", flush=True)
         grasps = R.replayed(load_set(cache / specs[hand].name)[0])
         labels = np.array([r.shape for r in grasps])
         for k in [int(c) for c in args.counts.split(",")]:

@@ -293,3 +293,22 @@ def test_a_sweep_can_ask_for_early_stop_and_old_manifests_still_match():
     plain = Sweep.from_dict({"shapes": [{"name": "sphere"}]}).to_dict()
     assert "early_stop" not in plain["controller"]  # as manifests written before it existed
     assert Sweep.from_dict(plain).to_dict() == plain
+
+
+def test_the_svm_scores_whole_lies_between_its_centred_and_off_centre_parts():
+    """Pooled over the splits' held-out grasps: with few grasps a split can hold no off-centre
+    one, and a mean over splits then put ``all`` below both parts (66.7 beside 75 and 80%)."""
+    from tactile_bullet.experiments.temporal import svm_scores
+    from tactile_bullet.records import Pose
+    from synthetic import make_records
+
+    records = make_records(per_shape=4, seed=3)
+    moved = [dataclasses.replace(r, pose=Pose((0.015, 0.0, 0.0), 0.0)) if i % 4 == 0 else r
+             for i, r in enumerate(records)]  # fmt: skip
+    scores, _ = svm_scores(moved, seeds=(0, 1, 2, 3, 4))
+    for correction in ("none", "position", "dynamic"):
+        s = scores[correction]
+        parts = [s[k] for k in ("centred", "off_centre") if s[k]]
+        assert s["all"]["n"] == sum(p["n"] for p in parts) == 5 * 6  # 30% of 20, five splits
+        low, high = min(p["mean"] for p in parts), max(p["mean"] for p in parts)
+        assert low - 1e-12 <= s["all"]["mean"] <= high + 1e-12

@@ -125,8 +125,11 @@ def centred(record) -> bool:
 
 def svm_scores(records: Sequence, seeds: Sequence[int] = (0, 1, 2), test_fraction: float = 0.3):
     """SVM, SVM_pos and SVM_dyn (signature + svm, ``correction`` none / position / dynamic) on
-    the same held-out splits: mean accuracy overall, on centred and on off-centre objects,
-    and the first split's confusion matrices."""
+    the same held-out splits: accuracy overall, on centred and on off-centre objects, and the
+    first split's confusion matrices. Each ``mean`` is over the held-out grasps of every split
+    together (``n`` of them; ``per_split`` each split's own, where it held any): a split whose
+    test grasps are all centred adds to ``all`` and ``centred`` only, so a mean over splits
+    could put ``all`` below both of its parts, which a pooled one cannot."""
     from ..console import tick
     from .reports import class_order, confusion_matrix
     from .training import labels_of, predict, split, train
@@ -135,22 +138,26 @@ def svm_scores(records: Sequence, seeds: Sequence[int] = (0, 1, 2), test_fractio
     matrices: dict[str, Any] = {}
     for c, correction in enumerate(("none", "position", "dynamic")):
         acc = {"all": [], "centred": [], "off_centre": []}
+        hits = {key: [0, 0] for key in acc}  # right answers, held-out grasps
         for k, seed in enumerate(seeds):
             tick("SVM, SVM_pos, SVM_dyn splits trained", c * len(seeds) + k, 3 * len(seeds))
             tr, te = split(records, test_fraction, seed)
             model = train(tr, "signature", "svm", None, {"correction": correction})
             y, p = labels_of(te), predict(model, te)
             mid = np.array([centred(r) for r in te])
-            acc["all"].append(float(np.mean(p == y)))
-            for key, mask in (("centred", mid), ("off_centre", ~mid)):
+            for key, mask in (("all", np.ones(len(y), bool)), ("centred", mid),
+                              ("off_centre", ~mid)):  # fmt: skip
                 if mask.any():
                     acc[key].append(float(np.mean(p[mask] == y[mask])))
+                    hits[key][0] += int(np.sum(p[mask] == y[mask]))
+                    hits[key][1] += int(mask.sum())
                 if k == 0 and correction != "none":
                     classes = class_order([str(c) for c in model.classes], y)
                     cm = confusion_matrix(y[mask], p[mask], classes)
                     matrices[f"{correction}_{key}"] = (np.asarray(cm).tolist(), classes)
         scores[correction] = {
-            k: {"mean": float(np.mean(v)), "per_split": v} if v else None for k, v in acc.items()
+            k: {"mean": hits[k][0] / hits[k][1], "n": hits[k][1], "per_split": v} if v else None
+            for k, v in acc.items()
         }
     scores["held_out_fraction"] = test_fraction
     scores["splits"] = list(seeds)

@@ -381,8 +381,9 @@ def test_the_hypotheses_are_fitted_with_the_hands_own_coefficients(monkeypatch):
 
 @pytest.mark.slow
 def test_an_active_row_keeps_each_grasp_so_its_table_can_be_fused_again():
-    """The row's ``made`` grasps fused again by the shipped rule give back its ``right``
-    table (what benchmarks/active_fusion.py checks before scoring another rule)."""
+    """The row's ``made`` grasps fused again by the package's rule (each distinct grasp once)
+    give back its ``right`` table (what benchmarks/active_fusion.py checks before scoring
+    another rule)."""
     import sys
     from pathlib import Path
 
@@ -402,5 +403,39 @@ def test_an_active_row_keeps_each_grasp_so_its_table_can_be_fused_again():
         assert len(made["grasps"]) == GRASPS
         assert set(made["grasps"][0]["probabilities"]) == set(default_model().classes)
         assert made["grasps"][0]["pose"] != made["grasps"][1]["pose"]  # random moves it
-    after, stop, right = score(row, RULES["product"])
+    after, stop, right = score(row, RULES["distinct"])
     assert right == row["right"] and after == row["after"] and stop == row["with_stopping"]
+
+
+def test_a_repeated_grasp_is_fused_once(monkeypatch):
+    """In simulation a grasp made again at a pose already grasped is the same grasp: it must
+    not make the answer surer (FUSE_REPEATS off); a grasp at the same pose that differs (a real
+    hand's noise) is fused."""
+    import dataclasses
+
+    rec = _record_with_final(np.zeros(24))
+    here, there = Pose((0.0, 0.0, 0.0), 0.0), Pose((0.005, 0.0, 0.0), 0.0)
+    other = dataclasses.replace(rec, final_angles=np.full(24, 0.01))
+    grasps = [E.Grasp(rec, here), E.Grasp(rec, there), E.Grasp(rec, here), E.Grasp(other, here)]
+    assert E.distinct(grasps) == [0, 1, 3]
+    monkeypatch.setattr(E, "FUSE_REPEATS", True)
+    assert E.distinct(grasps) == [0, 1, 2, 3]
+
+
+@pytest.mark.slow
+def test_repeating_the_first_pose_leaves_the_posterior_as_one_grasp_left_it():
+    doc = E.explore("cylinder", {"radius": 0.03}, Pose((0.0, 0.0, 0.0), 0.0),
+                    ControllerSettings(engine="mujoco"), max_grasps=2, strategy="repeat",
+                    until_settled=False)  # fmt: skip
+    one, two = doc["fused"]
+    assert two["posterior"] == one["posterior"]
+    assert (two["grasps"], two["distinct_grasps"]) == (2, 1)
+
+
+def _record_with_final(final):
+    import dataclasses
+
+    from synthetic import make_records
+
+    rec = make_records(per_shape=1, seed=0)[0]
+    return dataclasses.replace(rec, final_angles=np.asarray(final, dtype=float))

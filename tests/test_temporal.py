@@ -298,9 +298,10 @@ def test_a_sweep_can_ask_for_early_stop_and_old_manifests_still_match():
 def test_the_svm_scores_whole_lies_between_its_centred_and_off_centre_parts():
     """Pooled over the splits' held-out grasps: with few grasps a split can hold no off-centre
     one, and a mean over splits then put ``all`` below both parts (66.7 beside 75 and 80%)."""
+    from synthetic import make_records
+
     from tactile_bullet.experiments.temporal import svm_scores
     from tactile_bullet.records import Pose
-    from synthetic import make_records
 
     records = make_records(per_shape=4, seed=3)
     moved = [dataclasses.replace(r, pose=Pose((0.015, 0.0, 0.0), 0.0)) if i % 4 == 0 else r

@@ -95,6 +95,7 @@ def run(args: argparse.Namespace) -> int:
         "shape": fused["shape"], **_identifier(args.model, model),
         "probabilities": fused["posterior"], "ambiguous": fused["ambiguous"],
         "unknown": fused["unknown"], "grasps": fused["grasps"],
+        "distinct_grasps": fused["distinct_grasps"],
     }  # fmt: skip
     doc["object"] = {"shape": getattr(target, "name", str(target)), "params": params}
     if "plot" in outputs:
@@ -107,17 +108,21 @@ def run(args: argparse.Namespace) -> int:
         return 0
     answer = doc["answer"]
     p = answer["probabilities"][answer["shape"]]
-    line = f"identified after {answer['grasps']} grasp(s): {answer['shape']} (posterior {p:.2f})"
+    made = f"{answer['grasps']} grasp(s)"
+    if answer["distinct_grasps"] < answer["grasps"]:
+        made += f", {answer['grasps'] - answer['distinct_grasps']} of them a repeat counted once"
+    line = f"identified after {made}: {answer['shape']} (posterior {p:.2f})"
     if answer["unknown"]:
-        line = (f"identified after {answer['grasps']} grasp(s): UNKNOWN - at least half the "
-                f"grasps were answered unknown (no family explains them); best guess "
-                f"{answer['shape']}")  # fmt: skip
+        line = (f"identified after {made}: UNKNOWN - at least half the grasps were "
+                f"answered unknown (no family explains them); best guess {answer['shape']}")
     elif answer["ambiguous"]:
         line += f" - AMBIGUOUS: {answer['ambiguous'][0]} or {answer['ambiguous'][1]}"
     print(line)
     for d in doc["decisions"]:
-        print(f"  a next pose chosen in {d['seconds']:.2f} s from {d['simulated']} simulated "
-              f"grasps of {', '.join(h for h, _ in d['hypotheses'])}")  # fmt: skip
+        source = (f"{d['simulated']} new simulated grasps" if d["simulated"] else
+                  "the simulated grasps of the decision before (none new)")  # fmt: skip
+        print(f"  a next pose chosen in {d['seconds']:.2f} s from {source} of "
+              f"{', '.join(h for h, _ in d['hypotheses'])}")  # fmt: skip
     if "plot" in outputs:
         print(f"wrote plot: {outputs['plot']}")
     return 0

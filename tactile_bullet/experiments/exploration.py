@@ -75,6 +75,13 @@ one with the stopping rule (docs/exploration.md); ``benchmarks/active_switch.py`
 on to reproduce that."""
 
 
+FUSE_REPEATS = False
+"""Fuse a grasp that repeats an earlier one (the same pose and final joint angles: in
+simulation, the same grasp made again) as new evidence. Off: each distinct grasp counts once,
+so grasping a pose again cannot make the answer surer (docs/exploration.md, declared before
+seed 5); a real hand's grasps at one pose differ by their noise and are all fused."""
+
+
 @dataclass(frozen=True)
 class Grasp:
     """One grasp of the object: its record and the pose it was made at."""
@@ -107,6 +114,23 @@ def move_of(first: Pose, pose: Pose) -> tuple[float, float, float]:
     inverse)."""
     return (pose.offset[0] - first.offset[0], pose.offset[2] - first.offset[2],
             math.degrees(pose.rotation - first.rotation))  # fmt: skip
+
+
+def distinct(grasps: Sequence[Grasp]) -> list[int]:
+    """Indices of the grasps the fused answer counts: every one under :data:`FUSE_REPEATS`,
+    else each grasp once, one whose pose and final joint angles equal an earlier grasp's left
+    out."""
+    if FUSE_REPEATS:
+        return list(range(len(grasps)))
+    seen: set[tuple] = set()
+    keep = []
+    for i, g in enumerate(grasps):
+        final = np.asarray(g.record.final_angles, dtype=float)
+        key = (tuple(g.pose.offset), float(g.pose.rotation), final.tobytes())
+        if key not in seen:
+            seen.add(key)
+            keep.append(i)
+    return keep
 
 
 def unvisited(candidates: Sequence[Sequence[float]], first: Pose,
@@ -419,7 +443,8 @@ def plan(grasps: Sequence[Grasp], model, controller: ControllerSettings,
     """:func:`next_pose`'s decision with its reasons: ``pose``, ``move``, ``gains`` (bits,
     per move), ``hypotheses`` and ``simulated`` (new hypothesis grasps this decision)."""
     cache = cache if cache is not None else SimulationCache()
-    answers = grasp_answers(model, [g.record for g in grasps])
+    counted = [grasps[i] for i in distinct(grasps)]
+    answers = grasp_answers(model, [g.record for g in counted])
     fused = fused_answer(model, answers)
     prior = np.array([fused["posterior"][str(c)] for c in model.classes])
     hyps = hypotheses(model, grasps, fused)
@@ -500,12 +525,16 @@ def explore(
         record = simulate_grasp(target, params, pose, controller, seed=seed)
         grasps.append(Grasp(record, pose))
         answers = grasp_answers(model, [g.record for g in grasps])
-        fused = fused_answer(model, answers)
-        if fusion == "simulated" and len(grasps) > 1:
+        keep = distinct(grasps)
+        counted = [grasps[i] for i in keep]
+        fused = fused_answer(model, [answers[i] for i in keep])
+        if fusion == "simulated" and len(counted) > 1:
             if hyps is None:
                 hyps = hypotheses(model, grasps[:1], fused_answer(model, answers[:1]))
-            rows = simulated_likelihoods(model, grasps, hyps, controller, cache)
-            fused = fused_answer(model, answers, rows)
+            rows = simulated_likelihoods(model, counted, hyps, controller, cache)
+            fused = fused_answer(model, [answers[i] for i in keep], rows)
+        fused["grasps"] = len(grasps)  # made; the posterior counts each distinct one once
+        fused["distinct_grasps"] = len(keep)
         history.append(fused)
         entries.append({"pose": _pose_doc(pose), "answer": answers[-1],
                         "posterior": fused["posterior"]})  # fmt: skip

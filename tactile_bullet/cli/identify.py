@@ -207,9 +207,9 @@ def identify_recording(args: argparse.Namespace) -> int:
 
 def recording_tally(answers: list[dict]) -> dict:
     """How a recording's grasps were named (docs/json.md ``tally``): ``{"grasps",
-    "shapes": {shape: n}, "labelled", "correct", "ambiguous"}``; ``correct`` counts the
-    labelled grasps named as labelled (None when no grasp carries a label), ``ambiguous`` the
-    answers flagged (docs/doubt.md)."""
+    "shapes": {shape: n}, "labelled", "correct", "ambiguous", "unknown"}``; ``correct`` counts
+    the labelled grasps named as labelled (None when no grasp carries a label), ``ambiguous``
+    the answers flagged (docs/doubt.md), ``unknown`` those answered unknown."""
     from collections import Counter
 
     labelled = [a for a in answers if a["label"]]

@@ -412,9 +412,10 @@ def batch_warning(flagged: int, answers: int) -> str | None:
     if answers < BATCH_WARNING_MIN or flagged <= BATCH_WARNING_SHARE * answers:
         return None
     return (
-        f"{flagged} of {answers} answers are ambiguous: the model or its second opinion does "
-        "not read this hand; fit them to it with a few known grasps (train --known, "
-        "calibrate; docs/real_hand.md)"
+        f"{flagged} of {answers} answers are ambiguous: the model or its second opinion reads "
+        "these grasps poorly. Another hand's grasps: fit the model to that hand with a few "
+        "known grasps (adapt, train --known; docs/real_hand.md); grasps like the model's own "
+        "training grasps: train it on more of them"
     )
 
 

@@ -72,7 +72,7 @@ def test_labels_that_follow_no_feature_score_at_chance_not_perfect(known):
 
 
 def test_adapt_keeps_the_default_where_it_names_the_hand_and_a_known_way_where_not(
-    tmp_path, capsys, known
+    tmp_path, capsys, known, monkeypatch
 ):
     folder, records = known
     doc = _json(capsys, ["adapt", "--known", str(folder), "--out", str(tmp_path / "a.npz")])
@@ -86,6 +86,16 @@ def test_adapt_keeps_the_default_where_it_names_the_hand_and_a_known_way_where_n
     assert lo <= doc["accuracy"] <= hi
     assert doc["curve"] and doc["advice"]
     check("adapt", doc)  # every field docs/json.md documents, and no other
+    # where the default is kept, it learns nothing from known grasps: the curve printed is
+    # another way's, and the line says so
+    from tactile_bullet.experiments import adapt as A
+
+    kept = dict(doc, chosen="default", curve_way="default-shifted")
+    monkeypatch.setattr(A, "adapt", lambda *a, **k: kept)
+    assert main(["adapt", "--known", str(folder), "--out", str(tmp_path / "c.npz")]) == 0
+    assert ("learning curve of default-shifted (the best way that learns from known grasps; "
+            "default does not)") in capsys.readouterr().out  # fmt: skip
+    monkeypatch.undo()
     # a hand whose cone reads as our sphere and back: the default names them wrong, the known
     # grasps teach the swap
     swapped = [replace(r, shape=SWAP.get(r.shape, r.shape)) for r in records]

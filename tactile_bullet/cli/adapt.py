@@ -86,7 +86,10 @@ def run(args: argparse.Namespace) -> int:
           f"(95% interval {100 * lo:.0f}-{100 * hi:.0f}%, held-out known grasps)")
     if doc["curve"]:
         points = ", ".join(f"{p['per_shape']}: {100 * p['accuracy']:.0f}%" for p in doc["curve"])
-        print(f"learning curve of {doc['curve_way']} (known grasps per shape: accuracy): {points}")
+        whose = doc["curve_way"]
+        if whose != doc["chosen"]:  # the chosen way learns nothing from known grasps
+            whose += f" (the best way that learns from known grasps; {doc['chosen']} does not)"
+        print(f"learning curve of {whose} (known grasps per shape: accuracy): {points}")
     print(f"more grasps: {doc['advice']}")
     print(f"wrote model: {out} (tactile-bullet identify --model {out} ...)")
     return 0

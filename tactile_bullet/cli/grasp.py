@@ -251,7 +251,8 @@ def _print_summary(doc: dict) -> None:
     from ..hand import FINGERS
 
     params = ", ".join(f"{k}={v:g} m" for k, v in doc["params"].items())
-    print(f"{doc['shape']} ({params}), offset {doc['pose']['offset']} m, "
+    what = f"{doc['shape']} ({params or ('a mesh' if 'mesh' in doc else 'no sizes')})"
+    print(f"{what}, offset {doc['pose']['offset']} m, "
           f"rotation {doc['pose']['rotation_deg']:g} deg, {doc['mode']} mode, "
           f"{doc['engine']} engine")  # fmt: skip
     print(_answer_line(doc))

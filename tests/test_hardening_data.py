@@ -493,6 +493,11 @@ def test_progress_lines_reach_a_log_from_deep_loops(tmp_path, capsys, monkeypatc
     out, err = capsys.readouterr()
     assert "tcn training epochs" not in out  # progress goes to stderr only
     assert "tcn training epochs: 1/3" in err and "tcn training epochs: 2/3" in err
+    # the neural forest's updates too: a compare or the demo is seconds of them
+    argv = ["train", "--data", str(data), "--classifier", "neural-forest", "--param",
+            "n_updates=20", "--out", str(tmp_path / "f.npz")]  # fmt: skip
+    assert main(argv) == 0
+    assert "neural-forest: training updates: 10/20" in capsys.readouterr().err
     with console.reporting(True):
         assert list(console.progress(range(3), 3, "grasps", enabled=False)) == [0, 1, 2]
     assert "grasps: 3/3 (100%)" in capsys.readouterr().err

@@ -547,9 +547,14 @@ class NeuralForestClassifier(ClassifierMixin, BaseEstimator):
         leaves: Any,
         basis: Any,
     ) -> None:
-        """The Adam loop: binary cross-entropy of each forest's mixture against "its class"."""
+        """The Adam loop: binary cross-entropy of each forest's mixture against "its class".
+        Each update is a progress step (``console.tick``): a fit runs for seconds, silent
+        otherwise (``compare``, the demo, ``sequential``)."""
+        from ..console import tick
+
         k = targets.shape[1]
-        for rows in batches:
+        for step, rows in enumerate(batches):
+            tick("neural-forest: training updates", step, len(batches))
             w_eff = w if basis is None else basis @ w
             mu = _routing_torch(torch, xs[rows], idx, w_eff, b, self.depth)
             q = (mu * torch.sigmoid(leaves)).sum(-1).reshape(-1, k, self.n_trees).mean(-1)

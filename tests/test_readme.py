@@ -187,6 +187,10 @@ def test_readme_examples_run_in_order(tmp_path):
             f"README block {number} ({language}) exited {proc.returncode}:\n{code}\n"
             f"--- stderr ---\n{proc.stderr[-3000:]}"
         )
+        if language == "python":  # its streaming loop prints "<answer> grasped: <shape>"
+            streamed = [line.split(" grasped: ") for line in proc.stdout.splitlines()
+                        if " grasped: " in line]  # fmt: skip
+            assert len(streamed) == 5 and all(a == b for a, b in streamed), proc.stdout
     for command, arguments, shape in shape_examples(README.read_text()):
         if command == "identify":  # its model is the tour's: it exists now
             doc = run_json(command, arguments, tmp_path)

@@ -350,7 +350,7 @@ def answer_doubt(
     explains it, and ``shape`` is only the best guess; ``unknown_why`` says which (None where
     known). ``renamed_from``: the classifier's own answer where the grasp's contacts named
     ``shape`` instead (a torus read as a sphere: ``Model.answers``)."""
-    opinion = second_opinion or None
+    opinion = str(second_opinion) if second_opinion else None  # plain str, never numpy's
     out = no_doubt() | {
         "cross_check": opinion, "novelty": novelty,
         "axis_residual_mm": _mm(getattr(contacts, "axis_residual", None)),

@@ -159,6 +159,7 @@ def test_explore_json_has_the_answer_and_every_grasp(capsys, tmp_path):
     doc = json.loads(capsys.readouterr().out)
     assert doc["answer"]["shape"] == "sphere" and doc["answer"]["identifier"] == "default"
     assert 1 <= doc["answer"]["grasps"] == len(doc["grasps"]) <= 2
+    assert 1 <= doc["answer"]["distinct_grasps"] <= doc["answer"]["grasps"]
     for g in doc["grasps"]:
         assert set(g) == {"pose", "answer", "posterior"}
         assert math.isclose(sum(g["posterior"].values()), 1.0)

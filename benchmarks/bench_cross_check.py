@@ -21,13 +21,13 @@ from _report import provenance  # first: this checkout ahead of an installed cop
 from tactile_bullet.datasets.dataset import read_records
 from tactile_bullet.learn.robust import angles_for_shape_fit
 from tactile_bullet.objects.shapes import THESIS_SHAPES
-from tactile_bullet.perception import shape_fit
+from tactile_bullet.perception import fit_cache, shape_fit
 from tactile_bullet.perception.fit_batch import fit_names
 
 
 def _fresh() -> None:
-    shape_fit._FITS.clear()
-    shape_fit._NAMES.clear()
+    fit_cache._FITS.clear()
+    fit_cache._NAMES.clear()
 
 
 def main(argv: list[str]) -> int:
@@ -46,7 +46,7 @@ def main(argv: list[str]) -> int:
         start = time.perf_counter()
         names = fit_names(angles, families, workers=1)
         named = time.perf_counter() - start
-        decided = len(shape_fit._NAMES)
+        decided = len(fit_cache._NAMES)
         _fresh()
         start = time.perf_counter()
         whole = [shape_fit.fit_shape(a, families).shape for a in angles]

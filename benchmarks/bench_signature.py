@@ -70,7 +70,7 @@ def main() -> None:
 def bench_shape_fit(rng: np.random.Generator, repeat: int) -> float:
     """Median seconds of ``fit_shape`` on noisy model angles (grids built before timing)."""
     from tactile_bullet.objects.shapes import BUILTIN_SHAPES, THESIS_SHAPES
-    from tactile_bullet.perception import shape_fit
+    from tactile_bullet.perception import fit_cache, shape_fit
 
     table = {s.name: s for s in BUILTIN_SHAPES}
     inputs = []
@@ -84,7 +84,7 @@ def bench_shape_fit(rng: np.random.Generator, repeat: int) -> float:
         angles = np.vstack([pred[0], pred[1] / 2, pred[1] / 2]) + rng.normal(0, 0.02, (3, 4))
         inputs.append((angles,))
     def fresh(angles):  # each call a fit, not the per-process cache's answer
-        shape_fit._FITS.clear()
+        fit_cache._FITS.clear()
         return shape_fit.fit_shape(angles)
 
     return per_call(fresh, inputs, max(repeat, 20))

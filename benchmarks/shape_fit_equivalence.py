@@ -28,7 +28,7 @@ import numpy as np
 from _report import REPO, provenance  # first: this checkout ahead of an installed copy
 
 from tactile_bullet.objects.shapes import BUILTIN_SHAPES, THESIS_SHAPES
-from tactile_bullet.perception import shape_fit, shape_model
+from tactile_bullet.perception import fit_cache, shape_fit, shape_model
 
 REFERENCE = "adcd9c0"
 """main before issue 30's speed work (the shape fit's grid search, then per-start refinement)."""
@@ -116,7 +116,7 @@ def compare(ref, inputs, label: str) -> dict:
     worst = None
     for truth, angles in inputs:
         ref._FITS.clear()
-        shape_fit._FITS.clear()
+        fit_cache._FITS.clear()
         t0 = time.perf_counter()
         a = ref.fit_shape(angles)
         t1 = time.perf_counter()

@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 
 from tactile_bullet.errors import UsageError
-from tactile_bullet.perception import fit_batch, shape_fit
+from tactile_bullet.perception import fit_batch, fit_cache, shape_fit
 from tactile_bullet.perception.shape_model import active_calibration
 
 FAMILIES = ("cylinder", "sphere", "torus", "cone", "hyperboloid")
@@ -46,8 +46,8 @@ def _summaries(fits) -> list:
 
 @pytest.fixture()
 def fresh_cache(monkeypatch):
-    monkeypatch.setattr(shape_fit, "_FITS", type(shape_fit._FITS)())
-    monkeypatch.setattr(shape_fit, "_NAMES", type(shape_fit._NAMES)())
+    monkeypatch.setattr(fit_cache, "_FITS", type(fit_cache._FITS)())
+    monkeypatch.setattr(fit_cache, "_NAMES", type(fit_cache._NAMES)())
 
 
 FORKS = pytest.mark.skipif(not sys.platform.startswith("linux"), reason="fit_many forks on Linux")
@@ -58,7 +58,7 @@ def test_fits_split_over_workers_equal_the_fits_made_here(fresh_cache):
     angles = _angles(fit_batch.MIN_PARALLEL + 8)
     assert fit_batch.can_fork(), "one thread, not a daemon: fit_many forks here"
     parallel = fit_batch.fit_many(angles, FAMILIES, workers=2)
-    shape_fit._FITS.clear()
+    fit_cache._FITS.clear()
     here = [shape_fit.fit_shape(a, FAMILIES) for a in angles]
     assert _summaries(parallel) == _summaries(here)
 
@@ -68,14 +68,14 @@ def test_fits_made_by_workers_are_kept_for_the_next_ask(fresh_cache):
     fits = fit_batch.fit_many(angles, FAMILIES, workers=2)
     cal = active_calibration()
     for a, fit in zip(angles, fits, strict=True):
-        assert shape_fit.cached_fit(a, FAMILIES, cal) is fit
+        assert fit_cache.cached_fit(a, FAMILIES, cal) is fit
         assert shape_fit.fit_shape(a, FAMILIES) is fit  # read back, not fitted again
 
 
 def test_a_threaded_process_fits_here_and_gets_the_same_answers(fresh_cache):
     angles = _angles(fit_batch.MIN_PARALLEL)
     expected = _summaries(fit_batch.fit_many(angles, FAMILIES, workers=1))
-    shape_fit._FITS.clear()
+    fit_cache._FITS.clear()
     got = {}
 
     def run():
@@ -98,7 +98,7 @@ def test_bad_angles_fail_before_any_fit(fresh_cache):
     angles[-1] = np.full((3, 4), np.nan)
     with pytest.raises(UsageError, match="NaN"):
         fit_batch.fit_many(angles, FAMILIES, workers=2)
-    assert len(shape_fit._FITS) == 0
+    assert len(fit_cache._FITS) == 0
 
 
 def test_an_unknown_family_is_a_usage_error(fresh_cache):
@@ -120,7 +120,7 @@ def _dying_chunk(rows):
 def test_a_worker_that_dies_leaves_its_fits_to_this_process(fresh_cache, monkeypatch):
     angles = _angles(fit_batch.MIN_PARALLEL + 16)
     expected = _summaries(fit_batch.fit_many(angles, FAMILIES, workers=1))
-    shape_fit._FITS.clear()
+    fit_cache._FITS.clear()
     monkeypatch.setattr(fit_batch, "_fit_chunk", _dying_chunk)
     assert _summaries(fit_batch.fit_many(angles, FAMILIES, workers=2)) == expected
 
@@ -133,9 +133,9 @@ def test_the_cross_checks_names_are_the_families_the_whole_fit_names(fresh_cache
     angles = _angles(fit_batch.MIN_PARALLEL + 8)
     names = fit_batch.fit_names(angles, FAMILIES, workers=workers)
     cal = active_calibration()
-    on_grid = [shape_fit.cached_fit(a, FAMILIES, cal) is None for a in angles]
+    on_grid = [fit_cache.cached_fit(a, FAMILIES, cal) is None for a in angles]
     assert 0 < sum(on_grid) < len(angles), "both branches exercised"
-    shape_fit._FITS.clear()
+    fit_cache._FITS.clear()
     assert names == [shape_fit.fit_shape(a, FAMILIES).shape for a in angles]
 
 
@@ -146,8 +146,8 @@ def test_a_family_decided_on_the_grid_is_not_kept_as_a_whole_fit(fresh_cache):
     for a in _angles(12):
         found = shape_fit.name_or_fit(a, FAMILIES)
         if isinstance(found, str):
-            assert shape_fit.cached_fit(a, FAMILIES, cal) is None
-            assert shape_fit.cached_name(a, FAMILIES, cal) == found
+            assert fit_cache.cached_fit(a, FAMILIES, cal) is None
+            assert fit_cache.cached_name(a, FAMILIES, cal) == found
             whole = shape_fit.fit_shape(a, FAMILIES)
             assert whole.shape == found and whole.params  # the sizes, computed now
             assert shape_fit.name_or_fit(a, FAMILIES) is whole  # and read back after

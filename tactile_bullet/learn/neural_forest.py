@@ -34,6 +34,7 @@ from sklearn.utils import check_random_state
 from sklearn.utils.multiclass import check_classification_targets
 from sklearn.utils.validation import check_is_fitted, validate_data
 
+from ..console import tick
 from .torch_support import check_device_name, check_memory, import_torch, torch_device
 
 __all__ = ["NeuralForestClassifier", "per_class_accuracy"]
@@ -547,11 +548,8 @@ class NeuralForestClassifier(ClassifierMixin, BaseEstimator):
         leaves: Any,
         basis: Any,
     ) -> None:
-        """The Adam loop: binary cross-entropy of each forest's mixture against "its class".
-        Each update is a progress step (``console.tick``): a fit runs for seconds, silent
-        otherwise (``compare``, the demo, ``sequential``)."""
-        from ..console import tick
-
+        """The Adam loop: binary cross-entropy of each forest's mixture against "its class";
+        each update a progress step (a fit runs for seconds: compare, the demo, sequential)."""
         k = targets.shape[1]
         for step, rows in enumerate(batches):
             tick("neural-forest: training updates", step, len(batches))

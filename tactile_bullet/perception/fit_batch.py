@@ -25,14 +25,8 @@ import numpy as np
 
 from ..console import tick
 from .family_fit import ShapeFit, measured_features
-from .shape_fit import (
-    cached_fit,
-    cached_name,
-    fit_shape,
-    keep_fit,
-    keep_name,
-    name_or_fit,
-)
+from .fit_cache import cached_fit, cached_name, keep_fit, keep_name
+from .shape_fit import fit_shape, name_or_fit
 from .shape_model import Calibration, active_calibration
 
 MIN_PARALLEL = 32

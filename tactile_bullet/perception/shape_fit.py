@@ -22,7 +22,6 @@ residuals plus a penalty per size parameter; the lowest score wins.
 from __future__ import annotations
 
 import math
-from collections import OrderedDict
 from collections.abc import Mapping, Sequence
 from functools import cache
 
@@ -31,6 +30,7 @@ import numpy as np
 from ..errors import UsageError
 from ..objects.shapes import BUILTIN_SHAPES, THESIS_SHAPES, Shape, check_consistent
 from .family_fit import FamilyFit, ShapeFit, measured_features
+from .fit_cache import cached_fit, cached_name, keep_fit, keep_name
 from .grid_cache import grid_geometry
 from .search_steps import damped_steps, unique_rows
 from .shape_model import (
@@ -540,68 +540,6 @@ def name_or_fit(
     if len(decided) == 1:
         return keep_name(measured, names, cal, decided.pop(), features=True)
     return _kept(measured, names, cal, _refined(measured, state, near, cal))
-
-
-def keep_name(
-    angles, families: Sequence[str], cal: Calibration, name: str, features: bool = False
-) -> str:
-    """Keep ``name`` as :func:`name_or_fit`'s answer (decided on the grid, perhaps in another
-    process) for these angles, families and coefficients; returns it."""
-    _NAMES[_key(angles, families, cal, features)] = (cal, name)
-    if len(_NAMES) > FIT_CACHE:
-        _NAMES.popitem(last=False)
-    return name
-
-
-def cached_name(
-    angles, families: Sequence[str], cal: Calibration, features: bool = False
-) -> str | None:
-    """The family :func:`fit_shape` names, where this process knows it already (a whole fit
-    kept, or a name :func:`name_or_fit` decided on the grid); None where it does not."""
-    fit = cached_fit(angles, families, cal, features)
-    if fit is not None:
-        return fit.shape
-    hit = _NAMES.get(_key(angles, families, cal, features))
-    return hit[1] if hit is not None and hit[0] is cal else None
-
-
-def _key(angles, families: Sequence[str], cal: Calibration, features: bool) -> tuple:
-    measured = angles if features else measured_features(angles)
-    return (measured.tobytes(), tuple(dict.fromkeys(families)), id(cal))
-
-
-def cached_fit(
-    angles, families: Sequence[str], cal: Calibration, features: bool = False
-) -> ShapeFit | None:
-    """The fit :func:`fit_shape` keeps for final angles (3, 4) (or, ``features``, their
-    measured features), ``families`` and ``cal``; None where it has none."""
-    key = _key(angles, families, cal, features)
-    hit = _FITS.get(key)
-    if hit is None or hit[0] is not cal:
-        return None
-    _FITS.move_to_end(key)
-    return hit[1]
-
-
-def keep_fit(
-    angles, families: Sequence[str], cal: Calibration, fit: ShapeFit, features: bool = False
-) -> ShapeFit:
-    """Keep ``fit`` as :func:`fit_shape`'s answer for these angles, families and coefficients
-    (a fit computed elsewhere: another process of :mod:`.fit_batch`); returns it."""
-    _FITS[_key(angles, families, cal, features)] = (cal, fit)
-    if len(_FITS) > FIT_CACHE:
-        _FITS.popitem(last=False)
-    return fit
-
-
-FIT_CACHE = 8192
-"""Fits kept in memory, keyed by the measured angles, the families and the calibration: a
-grasp's fit is computed once per process however often it is asked for (``predict`` then
-``predict_proba``, the doubt calibration's folds, the cross-check of the same records)."""
-
-_FITS: OrderedDict = OrderedDict()
-_NAMES: OrderedDict = OrderedDict()
-"""Families :func:`name_or_fit` decided on the grid alone, keyed as :data:`_FITS`."""
 
 
 def predicted_angles(

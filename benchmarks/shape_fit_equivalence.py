@@ -199,7 +199,11 @@ def main(argv=None) -> int:
         label = "model grid (sizes x offsets x rotations, 1 deg noise)"
         compare(ref, model_grid()[:: args.every], label)
     for path in args.data:
-        compare(ref, dataset_grasps(path, args.limit)[:: args.every], f"dataset {path}")
+        grasps = dataset_grasps(path, args.limit)[:: args.every]
+        if not grasps:
+            print(f"dataset {path}: no grasp of the thesis shapes, nothing to compare")
+            continue
+        compare(ref, grasps, f"dataset {path}")
     return 0
 
 

@@ -25,7 +25,7 @@ import numpy as np
 
 from ..console import tick
 from .family_fit import ShapeFit, measured_features
-from .fit_cache import cached_fit, cached_name, keep_fit, keep_name
+from .fit_cache import cached_answer, cached_fit, keep_fit, keep_name
 from .shape_fit import fit_shape, name_or_fit
 from .shape_model import Calibration, active_calibration
 
@@ -136,7 +136,7 @@ def fit_names(
     as :func:`fit_many` gives them, but with a fit's sizes only computed where the grid does
     not decide the family (:func:`.shape_fit.name_or_fit`): what the doubt's cross-check
     reads."""
-    found = _batch(angles, families, calibration, desc, workers, cached_name, name_or_fit)
+    found = _batch(angles, families, calibration, desc, workers, cached_answer, name_or_fit)
     return [f if isinstance(f, str) else f.shape for f in found]
 
 

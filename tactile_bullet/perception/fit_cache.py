@@ -50,16 +50,25 @@ def keep_fit(
     return fit
 
 
+def cached_answer(
+    angles, families: Sequence[str], cal: Calibration, features: bool = False
+) -> ShapeFit | str | None:
+    """What this process knows of the shape fit of these angles: the whole fit where one is
+    kept, else the family name the grid decided, else None (one lookup of each)."""
+    fit = cached_fit(angles, families, cal, features)
+    if fit is not None:
+        return fit
+    hit = _NAMES.get(_key(angles, families, cal, features))
+    return hit[1] if hit is not None and hit[0] is cal else None
+
+
 def cached_name(
     angles, families: Sequence[str], cal: Calibration, features: bool = False
 ) -> str | None:
     """The family the shape fit names, where this process knows it already (a whole fit kept,
     or a name decided on the grid); None where it does not."""
-    fit = cached_fit(angles, families, cal, features)
-    if fit is not None:
-        return fit.shape
-    hit = _NAMES.get(_key(angles, families, cal, features))
-    return hit[1] if hit is not None and hit[0] is cal else None
+    found = cached_answer(angles, families, cal, features)
+    return found.shape if isinstance(found, ShapeFit) else found
 
 
 def keep_name(

@@ -30,7 +30,7 @@ import numpy as np
 from ..errors import UsageError
 from ..objects.shapes import BUILTIN_SHAPES, THESIS_SHAPES, Shape, check_consistent
 from .family_fit import FamilyFit, ShapeFit, measured_features
-from .fit_cache import cached_fit, cached_name, keep_fit, keep_name
+from .fit_cache import cached_answer, cached_fit, keep_fit, keep_name
 from .grid_cache import grid_geometry
 from .search_steps import damped_steps, unique_rows
 from .shape_model import (
@@ -525,16 +525,13 @@ def name_or_fit(
     family: the search only lowers the scores it refines, and every other family's score is
     already more than :data:`REFINE_MARGIN` above that family's, so :func:`fit_shape` names
     that family too, whatever the search finds. Its sizes, which the refining is for, are
-    then not computed: a third to nine tenths of grasps, at about a tenth of a fit's cost
-    (docs/performance.md).
+    then not computed (how often, and what it saves: docs/performance.md, "The cross-check
+    reads the family only").
     """
     measured, names, cal = _inputs(angles, families, calibration)
-    hit = cached_fit(measured, names, cal, features=True)
-    if hit is not None:
-        return hit
-    named = cached_name(measured, names, cal, features=True)
-    if named is not None:
-        return named
+    known = cached_answer(measured, names, cal, features=True)
+    if known is not None:
+        return known
     state, near = _grid_stage(measured, [_resolve_family(n) for n in names], cal)
     decided = {state[k][0].shape.name for k in near}
     if len(decided) == 1:

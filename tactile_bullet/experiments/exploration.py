@@ -438,13 +438,17 @@ def next_pose(
 
 
 def plan(grasps: Sequence[Grasp], model, controller: ControllerSettings,
-         moves: Sequence[Sequence[float]] = MOVES,
-         cache: SimulationCache | None = None) -> dict[str, Any]:  # fmt: skip
+         moves: Sequence[Sequence[float]] = MOVES, cache: SimulationCache | None = None,
+         answers: Sequence[Mapping[str, Any]] | None = None) -> dict[str, Any]:  # fmt: skip
     """:func:`next_pose`'s decision with its reasons: ``pose``, ``move``, ``gains`` (bits,
-    per move), ``hypotheses`` and ``simulated`` (new hypothesis grasps this decision)."""
+    per move), ``hypotheses`` and ``simulated`` (new hypothesis grasps this decision).
+    ``answers``: each grasp's own answer, where the caller has them (:func:`explore`)."""
     cache = cache if cache is not None else SimulationCache()
-    counted = [grasps[i] for i in distinct(grasps)]
-    answers = grasp_answers(model, [g.record for g in counted])
+    keep = distinct(grasps)
+    if answers is None:
+        answers = grasp_answers(model, [grasps[i].record for i in keep])
+    else:
+        answers = [answers[i] for i in keep]
     fused = fused_answer(model, answers)
     prior = np.array([fused["posterior"][str(c)] for c in model.classes])
     hyps = hypotheses(model, grasps, fused)
@@ -520,11 +524,12 @@ def explore(
     decisions: list[dict[str, Any]] = []
     history: list[dict[str, Any]] = []
     hyps: list[Hypothesis] | None = None
+    answers: list[dict[str, Any]] = []
     pose = first
     while True:
         record = simulate_grasp(target, params, pose, controller, seed=seed)
         grasps.append(Grasp(record, pose))
-        answers = grasp_answers(model, [g.record for g in grasps])
+        answers += grasp_answers(model, [record])  # each grasp identified once
         keep = distinct(grasps)
         counted = [grasps[i] for i in keep]
         fused = fused_answer(model, [answers[i] for i in keep])
@@ -544,7 +549,7 @@ def explore(
             break
         started = time.perf_counter()
         if strategy == "planned":
-            decision = plan(grasps, model, controller, cache=cache)
+            decision = plan(grasps, model, controller, cache=cache, answers=answers)
             pose = decision["pose"]
             decisions.append({"move": list(decision["move"]),
                               "gains_bits": {str(list(m)): g for m, g in

@@ -15,7 +15,8 @@ Rules: ``product`` (the grasps' smoothed probabilities multiplied, every grasp c
 declared before seed 5 in docs/exploration.md), ``vote`` (each grasp's named shape counts one,
 ties broken by the summed probabilities: two unsure misreads outvote one sure right read, or
 the other way round, by count alone) and ``surest`` (the answer of the grasp whose best
-probability is highest, alone).
+probability is highest, alone). Last, per row, how many objects' second, third, ... grasp
+was made at a pose already grasped.
 
 Usage: python benchmarks/active_fusion.py OUT [OUT ...]
 """
@@ -127,7 +128,22 @@ def main(argv: list[str]) -> int:
                 cells = " ".join(f"{100 * v:7.1f}" for v in after)
                 print(f"{row['column']:15s} {row['strategy']:19s} {name:9s} "
                       f"{len(row['made']):7d} {cells} {100 * stop:8.1f}")  # fmt: skip
+        print("objects whose grasp k was made at a pose grasped before (k = 2, 3, ...):")
+        for row in rows:
+            print(f"{row['column']:15s} {row['strategy']:19s} "
+                  + " ".join(str(n) for n in repeats(row)))  # fmt: skip
     return 0
+
+
+def repeats(row: dict) -> list[int]:
+    """Per grasp after the first, how many of a row's objects were grasped there at a pose
+    they had been grasped at before (the same grasp again, in simulation)."""
+    counts = [0] * (max(len(m["grasps"]) for m in row["made"]) - 1)
+    for made in row["made"]:
+        poses = [g["pose"] for g in made["grasps"]]
+        for k in range(1, len(poses)):
+            counts[k - 1] += poses[k] in poses[:k]
+    return counts
 
 
 if __name__ == "__main__":

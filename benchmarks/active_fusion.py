@@ -32,6 +32,7 @@ from types import SimpleNamespace
 import numpy as np
 from _report import provenance  # first: this checkout ahead of an installed copy
 
+from tactile_bullet.experiments.active import is_right
 from tactile_bullet.experiments.exploration import fused_answer, probabilities, settled
 
 
@@ -91,9 +92,9 @@ def score(row: dict, rule: Callable) -> tuple[list[float], float, list[list[bool
         answers = _answers(made)
         model = SimpleNamespace(classes=list(answers[0]["probabilities"] or {}))
         fused = [rule(model, answers[: k + 1]) for k in range(len(answers))]
-        right.append([f["shape"] == made["truth"] for f in fused])
+        right.append([is_right(f, made["truth"]) for f in fused])
         stop = next((k for k, f in enumerate(fused) if settled(f)), len(fused) - 1)
-        stopped.append(fused[stop]["shape"] == made["truth"])
+        stopped.append(is_right(fused[stop], made["truth"]))
     after = np.mean(np.array(right, float), axis=0).tolist()
     return after, float(np.mean(stopped)), right
 

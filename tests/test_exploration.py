@@ -57,6 +57,50 @@ def test_a_grasp_its_contacts_renamed_fuses_as_the_shape_they_named():
     assert E.fused_answer(_Model(), [_answer([0.9, 0.08, 0.02])])["shape"] == "a"
 
 
+class _Check:
+    """A contact check whose verdict on each family is given: ``bad`` families' thresholds
+    the contacts miss."""
+
+    def __init__(self, bad):
+        self.bad, self.asked = set(bad), []
+
+    def verdicts(self, records, names):
+        from tactile_bullet.perception.contact_check import Verdict
+
+        self.asked += list(names)
+        return [Verdict(axis_residual=0.002, unknown_why="axis" if n in self.bad else None)
+                for n in names]  # fmt: skip
+
+
+def test_a_grasps_contacts_are_judged_against_the_fused_family(monkeypatch):
+    """Two grasps: the first read as "b" and unknown by its contacts (they miss b's axis), the
+    second read as "a". Fused, the object is "a"; judged against "a" the first grasp's contacts
+    pass, so the fused answer is not unknown (UNKNOWN_AGAINST_FUSED). A grasp the novelty rule
+    made unknown stays so; without the switch or the records, the grasps' own flags count."""
+    from tactile_bullet.learn.doubt import NOT_REVOLUTION, UNLIKE_TRAINING
+
+    model = _Model()
+    model.axis = _Check(bad={"b"})
+    first = _answer([0.3, 0.7, 0.0], unknown=True) | {"shape": "b",
+                                                      "unknown_why": NOT_REVOLUTION}
+    second = _answer([0.95, 0.05, 0.0]) | {"shape": "a"}
+    records = [object(), object()]
+    monkeypatch.setattr(E, "UNKNOWN_AGAINST_FUSED", False)
+    assert E.fused_answer(model, [first, second], records=records)["unknown"] is True
+    monkeypatch.setattr(E, "UNKNOWN_AGAINST_FUSED", True)
+    fused = E.fused_answer(model, [first, second], records=records)
+    assert fused["shape"] == "a" and fused["unknown"] is False
+    assert model.axis.asked == ["a"]  # only the grasp that named another family is judged
+    assert E.fused_answer(model, [first, second])["unknown"] is True  # no records: own flags
+    novel = first | {"unknown_why": UNLIKE_TRAINING}
+    assert E.fused_answer(model, [novel, second], records=records)["unknown"] is True
+    # the other way: a grasp known as "a" whose contacts miss the fused family "b"
+    model.axis = _Check(bad={"b"})
+    sure_b = _answer([0.0, 1.0, 0.0]) | {"shape": "b"}
+    assert E.unknown_against(model, [second | {"shape": "a"}, sure_b], records, "b") == [
+        True, False]  # fmt: skip
+
+
 def test_every_planned_pose_is_reachable_from_any_reachable_first_pose():
     for first in (Pose(), Pose((0.015, 0.0, -0.010), math.radians(-25.0)),
                   Pose((-0.005, 0.0, 0.01), math.radians(10.0))):  # fmt: skip
@@ -304,7 +348,7 @@ def test_every_hard_object_of_the_active_protocol_is_a_valid_grasp(tmp_path):
 
     assert "household" not in columns("tiny", {})
     cols = columns("quick", {"gymnasium": "hand.xml"}, objects=tmp_path)
-    assert set(cols) == {"border", "unseen-poses", "household", "gymnasium"}
+    assert set(cols) == {"border", "unseen-poses", "household", "out-of-family", "gymnasium"}
     for name, (_controller, objects) in cols.items():
         assert objects, name
         for _shape, _params, pose, *_family in objects:
@@ -317,6 +361,17 @@ def test_every_hard_object_of_the_active_protocol_is_a_valid_grasp(tmp_path):
     tori = [p for s, p, _ in border if s == "torus"]
     assert all(p["major_radius"] - p["minor_radius"] <= 0.006 for p in tori)  # hole nearly shut
     assert cols["gymnasium"][0].hand_model.endswith("hand.xml")
+    # objects of no family: every one is right only where answered unknown
+    oof = cols["out-of-family"][1]
+    assert len(oof) == 3 * 10 and all(family is None for *_, family in oof)
+    names = {s if isinstance(s, str) else s.name for s, *_ in oof}
+    assert {"ovoid", "hexagonal_pyramid"} <= names and len(names) == 10
+    assert not E.settled({"ambiguous": None, "unknown": True})
+    from tactile_bullet.experiments.active import is_right
+
+    assert is_right({"shape": "cylinder", "unknown": True}, None)
+    assert not is_right({"shape": "cylinder", "unknown": False}, None)
+    assert is_right({"shape": "cylinder", "unknown": True}, "cylinder")
 
 
 @pytest.mark.slow

@@ -10,7 +10,9 @@ with a slight waist, a short wide cylinder turned 20 deg), the five shapes at un
 a ball, a vase, a paper cup; turned 0-25 deg, as the robustness matrix's household column),
 and, where ``--other-hand`` names their models, the hands written by others. Every strategy
 grasps the same objects at the same first pose; each sequence runs to three grasps, and the
-fused answer after each is scored against the object's family.
+fused answer after each is scored against the object's family. The ``out-of-family`` column
+(the household meshes of no family and the thesis' modified shapes) is scored the other way:
+an answer there is right where it is ``unknown``.
 """
 
 from __future__ import annotations
@@ -34,6 +36,8 @@ simulated hypotheses instead of the model's own answers: exploration.simulated_l
 SCALES = {"full": 8, "quick": 3, "tiny": 1}
 """Objects per family and column, by scale."""
 GRASPS = 3
+OUT_OF_FAMILY = "out-of-family"
+"""The column of objects of no family, right where the fused answer is ``unknown``."""
 
 
 def border_objects(n: int, rng: np.random.Generator) -> list[tuple[str, dict, Pose]]:
@@ -98,6 +102,43 @@ def household_objects(n: int, rng: np.random.Generator,
     return out
 
 
+def no_family_objects(n: int, rng: np.random.Generator,
+                      folder: Path) -> list[tuple[Any, dict, Pose, None]]:  # fmt: skip
+    """Objects of no family, each grasped ``n`` times at a first pose as the household
+    meshes' (a few mm off centre, turned 0-25 deg): the robustness matrix's out-of-family
+    meshes (``robustness_sets.NO_FAMILY_OBJECTS``, written to ``folder`` once) and the
+    thesis' modified shapes at middle sizes: (shape, sizes, first pose, None: no family is
+    right)."""
+    from ..objects.examples import OBJECTS, write_object
+    from ..objects.meshes import load_mesh
+    from ..objects.shapes import BUILTIN_SHAPES
+    from .robustness_sets import NO_FAMILY_OBJECTS, OUT_OF_FAMILY_SHAPES
+
+    folder.mkdir(parents=True, exist_ok=True)
+    table = {s.name: s for s in BUILTIN_SHAPES}
+    out: list[tuple[Any, dict, Pose, None]] = []
+    for _ in range(n):
+        for name in (*NO_FAMILY_OBJECTS, *OUT_OF_FAMILY_SHAPES):
+            pose = Pose((float(rng.uniform(-0.008, 0.008)), 0.0, float(rng.uniform(-0.005, 0.005))),
+                        math.radians(float(rng.uniform(0.0, 25.0))))  # fmt: skip
+            if name in table:
+                mid = {k: 0.5 * (p.min + p.max) for k, p in table[name].params.items()}
+                out.append((name, mid, pose, None))
+                continue
+            _, ext, unit, _ = OBJECTS[name]
+            path = folder / f"{name}.{ext}"
+            if not path.is_file():
+                write_object(name, folder)
+            out.append((load_mesh(path, unit), {}, pose, None))
+    return out
+
+
+def is_right(fused: Mapping[str, Any], truth: str | None) -> bool:
+    """Whether a fused answer is right: it names the object's family, or, for an object of no
+    family (``truth`` None), it is ``unknown``."""
+    return bool(fused["unknown"]) if truth is None else fused["shape"] == truth
+
+
 def columns(scale: str, hands: Mapping[str, str], seed: int = 0,
             objects: Path | None = None) -> dict[str, tuple]:  # fmt: skip
     """Column -> (controller, objects), each object (shape, sizes, first pose[, family: the
@@ -116,6 +157,8 @@ def columns(scale: str, hands: Mapping[str, str], seed: int = 0,
     if objects is not None:
         out["household"] = (mujoco, household_objects(n, np.random.default_rng(seed + 2),
                                                       objects))  # fmt: skip
+        out[OUT_OF_FAMILY] = (mujoco, no_family_objects(n, np.random.default_rng(seed + 3),
+                                                         objects))  # fmt: skip
     for name, path in sorted(hands.items()):
         ctl = replace(mujoco, hand_model=str(Path(path).resolve()))
         out[name] = (ctl, [o for o in posed_objects(n, np.random.default_rng(seed + 1))
@@ -171,12 +214,17 @@ def score_column(objects: Sequence[tuple], controller: ControllerSettings, model
     """One strategy (``planned``, ``random``, ``repeat``, each optionally ``+simulated``) on one
     column's objects, each explored to ``GRASPS`` grasps: its row (``strategy``, ``objects``,
     ``after``: the share right after 1..GRASPS grasps, ``with_stopping``, ``mean_grasps``,
-    ``right``: per object, right after each count; ``made``: per object, its true family and
-    each grasp's pose and own answer) and each planning decision's seconds."""
+    ``right``: per object, right after each count (:func:`is_right`); ``shapes`` and
+    ``unknown``: per object, the fused answer's shape after each count and whether it is
+    unknown, and ``stop_unknown`` with the stopping rule; ``made``: per object, its true
+    family (None: of no family) and each grasp's pose and own answer) and each planning
+    decision's seconds."""
     from .exploration import SimulationCache, explore, settled
 
     after = np.zeros((len(objects), GRASPS), bool)
-    stop_right, stop_used, seconds, made = [], [], [], []
+    unknown = np.zeros((len(objects), GRASPS), bool)
+    shapes: list[list[str]] = []
+    stop_right, stop_unknown, stop_used, seconds, made = [], [], [], [], []
     how, _, fusion = strategy.partition("+")
     for i, (shape, params, first, *family) in enumerate(objects):
         truth = family[0] if family else shape
@@ -186,24 +234,29 @@ def score_column(objects: Sequence[tuple], controller: ControllerSettings, model
         seconds += [d["seconds"] for d in doc["decisions"]]
         fused = doc["fused"]
         for k in range(GRASPS):
-            after[i, k] = fused[min(k, len(fused) - 1)]["shape"] == truth
+            after[i, k] = is_right(fused[min(k, len(fused) - 1)], truth)
+            unknown[i, k] = bool(fused[min(k, len(fused) - 1)]["unknown"])
+        shapes.append([str(fused[min(k, len(fused) - 1)]["shape"]) for k in range(GRASPS)])
         stop = next((k for k, f in enumerate(fused) if settled(f)), len(fused) - 1)
-        stop_right.append(fused[stop]["shape"] == truth)
+        stop_right.append(is_right(fused[stop], truth))
+        stop_unknown.append(bool(fused[stop]["unknown"]))
         stop_used.append(stop + 1)
         made.append({"truth": truth, "grasps": [_grasp_doc(g) for g in doc["grasps"]]})
     row = {"strategy": strategy, "objects": len(objects),
            "after": [float(v) for v in after.mean(axis=0)],
            "with_stopping": float(np.mean(stop_right)),
            "mean_grasps": float(np.mean(stop_used))}  # fmt: skip
-    return row | {"right": after.tolist(), "stop_right": stop_right, "made": made}, seconds
+    return row | {"right": after.tolist(), "stop_right": stop_right,
+                  "shapes": shapes, "unknown": unknown.tolist(), "stop_unknown": stop_unknown,
+                  "made": made}, seconds  # fmt: skip
 
 
 def _grasp_doc(entry: Mapping[str, Any]) -> dict[str, Any]:
     """What a row keeps of one grasp: its pose and its own answer (shape, probabilities,
-    unknown, ambiguous, renamed_from), so that another fusion of the same grasps can be scored
-    offline (``benchmarks/active_fusion.py``) without simulating them again."""
+    unknown and why, ambiguous, renamed_from), so that another fusion of the same grasps can
+    be scored offline (``benchmarks/active_fusion.py``) without simulating them again."""
     answer = entry["answer"]
-    keep = ("shape", "probabilities", "unknown", "ambiguous", "renamed_from")
+    keep = ("shape", "probabilities", "unknown", "unknown_why", "ambiguous", "renamed_from")
     return {"pose": entry["pose"], **{k: answer.get(k) for k in keep}}
 
 

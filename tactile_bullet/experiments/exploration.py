@@ -81,6 +81,13 @@ simulation, the same grasp made again) as new evidence. Off: each distinct grasp
 so grasping a pose again cannot make the answer surer (docs/exploration.md, declared before
 seed 5); a real hand's grasps at one pose differ by their noise and are all fused."""
 
+UNKNOWN_AGAINST_FUSED = False
+"""Judge each grasp's contacts against the fused family, not against the family that grasp
+alone named: a grasp read as a cylinder whose normals miss a cylinder's tight axis threshold
+may still be a hyperboloid's, the family the grasps together name. A grasp whose features lie
+beyond the model's training grasps (the novelty rule) stays unknown whatever the family.
+Declared before seed 7 (docs/exploration.md); ``benchmarks/active_switch.py`` turns it on."""
+
 
 @dataclass(frozen=True)
 class Grasp:
@@ -207,12 +214,15 @@ def probabilities(model, answer: Mapping[str, Any]) -> np.ndarray:
 
 
 def fused_answer(model, answers: Sequence[Mapping[str, Any]],
-                 likelihoods: Sequence[np.ndarray] | None = None) -> dict[str, Any]:  # fmt: skip
+                 likelihoods: Sequence[np.ndarray] | None = None,
+                 records: Sequence[GraspRecord] | None = None) -> dict[str, Any]:  # fmt: skip
     """The answer after every grasp so far: ``shape`` (the posterior's best), ``posterior``
     ({shape: p}), ``ambiguous`` ([best, runner-up] while the best is under ``SURE``, else
     None) and ``unknown`` (at least half the grasps answered unknown). With ``likelihoods``
     (the later grasps read by simulation, :func:`simulated_likelihoods`) the posterior is the
-    first grasp's answer times them, in place of the later grasps' own answers."""
+    first grasp's answer times them, in place of the later grasps' own answers. With the
+    grasps' ``records`` (one per answer) and :data:`UNKNOWN_AGAINST_FUSED`, each grasp counts
+    as unknown as :func:`unknown_against` judges it against the fused family."""
     classes = [str(c) for c in model.classes]
     if likelihoods is None:
         post = fuse([probabilities(model, a) for a in answers])
@@ -220,7 +230,11 @@ def fused_answer(model, answers: Sequence[Mapping[str, Any]],
         post = fuse([probabilities(model, answers[0]), *likelihoods])
     order = np.argsort(-post)
     best, second = classes[order[0]], classes[order[1]]
-    unknown = sum(bool(a.get("unknown")) for a in answers) * 2 >= len(answers)
+    if records is not None and UNKNOWN_AGAINST_FUSED:
+        flags = unknown_against(model, answers, records, best)
+    else:
+        flags = [bool(a.get("unknown")) for a in answers]
+    unknown = sum(flags) * 2 >= len(answers)
     ambiguous = None if post[order[0]] >= SURE else [best, second]
     if len(answers) == 1 and answers[0].get("ambiguous"):  # one grasp: its own doubt stands
         ambiguous = list(answers[0]["ambiguous"])
@@ -231,6 +245,30 @@ def fused_answer(model, answers: Sequence[Mapping[str, Any]],
         "unknown": bool(unknown),
         "grasps": len(answers),
     }
+
+
+def unknown_against(model, answers: Sequence[Mapping[str, Any]],
+                    records: Sequence[GraspRecord], family: str) -> list[bool]:
+    """Whether each grasp is unknown to ``family``: its own answer's flag where it named that
+    family or its novelty (family-blind) made it unknown; else what its contacts say of
+    ``family`` (the model's axis and profile thresholds for it, on the grasp's engine). A
+    model without a contact check, or a grasp without contacts, keeps its own flag."""
+    from ..learn.doubt import UNLIKE_TRAINING
+
+    if len(records) != len(answers):
+        raise ValueError(f"{len(answers)} answers but {len(records)} records")
+    flags = [bool(a.get("unknown")) for a in answers]
+    check = getattr(model, "axis", None)
+    asked = [i for i, a in enumerate(answers)
+             if check is not None and a.get("shape") != family
+             and a.get("unknown_why") != UNLIKE_TRAINING]  # fmt: skip
+    if not asked:
+        return flags
+    found = check.verdicts([records[i] for i in asked], [family] * len(asked))
+    for i, verdict in zip(asked, found, strict=True):
+        if verdict.axis_residual is not None:  # contacts judged: their verdict on the family
+            flags[i] = verdict.unknown_why is not None
+    return flags
 
 
 def simulated_likelihoods(model, grasps: Sequence[Grasp], hyps: Sequence[Hypothesis],
@@ -532,12 +570,13 @@ def explore(
         answers += grasp_answers(model, [record])  # each grasp identified once
         keep = distinct(grasps)
         counted = [grasps[i] for i in keep]
-        fused = fused_answer(model, [answers[i] for i in keep])
+        records = [g.record for g in counted]
+        fused = fused_answer(model, [answers[i] for i in keep], records=records)
         if fusion == "simulated" and len(counted) > 1:
             if hyps is None:
                 hyps = hypotheses(model, grasps[:1], fused_answer(model, answers[:1]))
             rows = simulated_likelihoods(model, counted, hyps, controller, cache)
-            fused = fused_answer(model, [answers[i] for i in keep], rows)
+            fused = fused_answer(model, [answers[i] for i in keep], rows, records=records)
         fused["grasps"] = len(grasps)  # made; the posterior counts each distinct one once
         fused["distinct_grasps"] = len(keep)
         history.append(fused)

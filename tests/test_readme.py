@@ -54,12 +54,15 @@ def readme_blocks(text: str) -> list[tuple[str, str]]:
     return blocks
 
 
-SHAPE_LINE = re.compile(r"^tactile-bullet (grasp|identify) (.*--shape (\S+).*?)\s*(#.*)?$", re.M)
+SHAPE_LINE = re.compile(
+    r"^tactile-bullet (grasp|identify|explore) (.*--shape (\S+).*?)\s*(#.*)?$", re.M
+)
 
 
 def shape_examples(text: str) -> list[tuple[str, str, str]]:
     """(command, its arguments, the shape it names) of every README line that grasps a named
-    shape: ``grasp --shape S`` and ``identify --shape S``, in any bash block."""
+    shape: ``grasp --shape S``, ``identify --shape S`` and ``explore --shape S``, in any bash
+    block."""
     code = "\n".join(c for lang, c in re.findall(r"^```(\w+)\n(.*?)^```", text, re.S | re.M)
                      if lang == "bash")  # fmt: skip
     return [(m.group(1), m.group(2), m.group(3)) for m in SHAPE_LINE.finditer(code)]
@@ -87,18 +90,19 @@ def run_json(command: str, arguments: str, cwd: Path) -> dict:
 
 def test_the_readme_names_shapes_in_its_grasp_examples():
     examples = shape_examples(README.read_text())
-    assert {c for c, _, _ in examples} == {"grasp", "identify"}
+    assert {c for c, _, _ in examples} == {"grasp", "identify", "explore"}
     assert len([1 for c, _, _ in examples if c == "grasp"]) >= 4
 
 
 @pytest.mark.slow
 def test_every_grasp_example_of_the_readme_names_its_shape(tmp_path):
-    """The default identifier's answers to the README's ``grasp --shape`` lines (the
-    ``identify --model`` lines need the tour's model: test_readme_examples_run_in_order)."""
+    """The default identifier's answers to the README's ``grasp --shape`` lines, and the fused
+    answer of its ``explore --shape`` line (the ``identify --model`` lines need the tour's
+    model: test_readme_examples_run_in_order)."""
     wrong = []
     text = README.read_text()
     for command, arguments, shape in shape_examples(text):
-        if command != "grasp":
+        if command == "identify":
             continue
         doc = run_json(command, arguments, tmp_path)
         if declares_unknown(text, arguments):  # the README says so beside the line

@@ -10,7 +10,8 @@ fuses the grasps' answers:
   knn's 0/0.2/../1 probabilities would otherwise let one grasp veto a shape for good);
   ``ambiguous`` where the best shape's posterior is under ``SURE`` (after one grasp, also where
   that grasp's own answer is ambiguous: its second opinion disagrees), ``unknown`` where at
-  least half the grasps were answered unknown.
+  least half the grasps are unknown, each grasp's contacts judged against the fused family
+  (:data:`UNKNOWN_AGAINST_FUSED`).
 - **Planning** (:func:`next_pose`): each hypothesis is a shape family with the sizes and pose
   the training-free shape fit gives it on the first grasp. For each candidate move of the hand
   (:data:`MOVES`: along O-O', across it, turned about the palm normal) that keeps the grasp in
@@ -81,12 +82,13 @@ simulation, the same grasp made again) as new evidence. Off: each distinct grasp
 so grasping a pose again cannot make the answer surer (docs/exploration.md, declared before
 seed 5); a real hand's grasps at one pose differ by their noise and are all fused."""
 
-UNKNOWN_AGAINST_FUSED = False
+UNKNOWN_AGAINST_FUSED = True
 """Judge each grasp's contacts against the fused family, not against the family that grasp
 alone named: a grasp read as a cylinder whose normals miss a cylinder's tight axis threshold
 may still be a hyperboloid's, the family the grasps together name. A grasp whose features lie
 beyond the model's training grasps (the novelty rule) stays unknown whatever the family.
-Declared before seed 7 (docs/exploration.md); ``benchmarks/active_switch.py`` turns it on."""
+Declared before seed 7 and kept on it (docs/exploration.md); ``benchmarks/active_unknown.py``
+scores it against the grasps' own flags."""
 
 
 @dataclass(frozen=True)

@@ -33,7 +33,7 @@ import numpy as np
 from _report import provenance  # first: this checkout ahead of an installed copy
 
 from tactile_bullet.experiments.active import is_right
-from tactile_bullet.experiments.exploration import fused_answer, probabilities, settled
+from tactile_bullet.experiments.fusion import fused_answer, probabilities, settled
 
 
 def _product(model, answers: Sequence[dict]) -> dict:

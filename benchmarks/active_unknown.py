@@ -1,5 +1,5 @@
 """The fused ``unknown`` with each grasp's contacts judged against the fused family
-(``exploration.UNKNOWN_AGAINST_FUSED``) and against the family each grasp named alone (the
+(``fusion.UNKNOWN_AGAINST_FUSED``) and against the family each grasp named alone (the
 rule before it), on the ``active`` protocol's objects, and the verdict of the rule declared
 before seed 7 (docs/exploration.md).
 
@@ -28,9 +28,9 @@ from types import SimpleNamespace
 from _report import provenance  # first: this checkout ahead of an installed copy
 from active_fusion import RULES, _answers
 
-from tactile_bullet.experiments import exploration
+from tactile_bullet.experiments import fusion
 from tactile_bullet.experiments.active import GRASPS, OUT_OF_FAMILY, columns, is_right, score_column
-from tactile_bullet.experiments.exploration import settled
+from tactile_bullet.experiments.fusion import settled
 from tactile_bullet.learn.default import default_model
 
 TOLERANCE = 4
@@ -97,7 +97,7 @@ def main(argv=None) -> int:
     provenance(argv)
     hands = dict(h.split("=", 1) for h in args.other_hand)
     model = default_model()
-    exploration.UNKNOWN_AGAINST_FUSED = True
+    fusion.UNKNOWN_AGAINST_FUSED = True
     table: dict[str, dict[str, dict]] = {}
     rows: dict[str, dict] = {}
     with tempfile.TemporaryDirectory() as tmp:

@@ -3,11 +3,15 @@ by ``generate --workers 1`` and by ``generate --workers 0``, MuJoCo then Bullet 
 
 Prints, per engine, the first grasp's time, the bare time per grasp, both generate times and
 the overhead of one worker; then MuJoCo / Bullet grasps per second in ``generate --workers 1``.
-Then the command as a user runs it: ``tactile-bullet generate --config SWEEP.toml --engine E
---workers 1`` in a fresh process per engine (nothing imported or compiled before it), timed
-whole and by its own ``wall_time_s``, and the same ratio. In this process the bare grasps have
-already compiled each size's model, which a forked worker inherits: the fresh-process figures
-are the ones a user sees.
+In this process MuJoCo's models are compiled, never read from the disk cache
+(``mujoco_cache.ENABLED`` off). Then the command as a user runs it: ``tactile-bullet generate
+--config SWEEP.toml --engine E --workers 1`` in a fresh process per engine (nothing imported or
+compiled before it), timed whole and by its own ``wall_time_s``, and the same ratio: first with
+an empty cache folder (``$TACTILE_BULLET_CACHE``: every mesh made and every MuJoCo model
+compiled), then again with that folder as the first run left it (MuJoCo's compiled models read
+back, ``sim/engines/mujoco_cache.py``). In this process the bare grasps have already compiled
+each size's model, which a forked worker inherits: the fresh-process figures are the ones a
+user sees.
 
     python benchmarks/bench_generate_engines.py [GRASPS, default 26]
 """
@@ -15,6 +19,7 @@ are the ones a user sees.
 from __future__ import annotations
 
 import json
+import os
 import shutil
 import subprocess
 import sys
@@ -28,12 +33,14 @@ from bench_generate import sweep
 from tactile_bullet.datasets.executors import run_task
 from tactile_bullet.datasets.generate import generate
 from tactile_bullet.datasets.sweep_engines import with_engine
+from tactile_bullet.sim.engines import mujoco_cache
 
 
 def main() -> None:
     provenance()
     n = int(sys.argv[1]) if len(sys.argv) > 1 else 26
     work = Path(tempfile.mkdtemp())
+    mujoco_cache.ENABLED = False  # in this process: compiled, as before the disk cache
     took = {}
     try:
         for engine in ("mujoco", "bullet"):
@@ -56,23 +63,26 @@ def main() -> None:
               f"{took['bullet'] / took['mujoco']:.2f}x")  # fmt: skip
         config = work / "sweep.toml"
         config.write_text(toml_of(n))
-        fresh = {}
-        for engine in ("mujoco", "bullet"):
-            out = work / f"{engine}-cli"
-            start = time.perf_counter()
-            done = subprocess.run(
-                [sys.executable, "-m", "tactile_bullet.cli", "generate", "--config", str(config),
-                 "--engine", engine, "--workers", "1", "--out", str(out), "--json"],
-                check=True, capture_output=True, text=True,
-            )  # fmt: skip
-            whole = time.perf_counter() - start
-            inner = json.loads(done.stdout)["wall_time_s"]
-            fresh[engine] = (whole, inner)
-            print(f"{engine}: tactile-bullet generate --workers 1 in a fresh process: "
-                  f"{whole:.2f} s whole, {inner:.2f} s by its wall_time_s")  # fmt: skip
-        print(f"MuJoCo / Bullet grasps per second, fresh generate --workers 1: "
-              f"{fresh['bullet'][0] / fresh['mujoco'][0]:.2f}x whole command, "
-              f"{fresh['bullet'][1] / fresh['mujoco'][1]:.2f}x by wall_time_s")  # fmt: skip
+        for cache in ("cold", "warm"):  # an empty cache folder, then as the cold run left it
+            fresh = {}
+            for engine in ("mujoco", "bullet"):
+                out = work / f"{engine}-cli-{cache}"
+                env = {**os.environ, "TACTILE_BULLET_CACHE": str(work / f"cache-{engine}")}
+                start = time.perf_counter()
+                done = subprocess.run(
+                    [sys.executable, "-m", "tactile_bullet.cli", "generate", "--config",
+                     str(config), "--engine", engine, "--workers", "1", "--out", str(out),
+                     "--json"],
+                    check=True, capture_output=True, text=True, env=env,
+                )  # fmt: skip
+                whole = time.perf_counter() - start
+                inner = json.loads(done.stdout)["wall_time_s"]
+                fresh[engine] = (whole, inner)
+                print(f"{engine}: tactile-bullet generate --workers 1 in a fresh process, "
+                      f"{cache} cache: {whole:.2f} s whole, {inner:.2f} s by its wall_time_s")
+            print(f"MuJoCo / Bullet grasps per second, fresh generate --workers 1, {cache} "
+                  f"cache: {fresh['bullet'][0] / fresh['mujoco'][0]:.2f}x whole command, "
+                  f"{fresh['bullet'][1] / fresh['mujoco'][1]:.2f}x by wall_time_s")  # fmt: skip
     finally:
         shutil.rmtree(work, ignore_errors=True)
 

@@ -11,6 +11,7 @@ import pytest
 
 from tactile_bullet.errors import UsageError
 from tactile_bullet.experiments import exploration as E
+from tactile_bullet.experiments import fusion as F
 from tactile_bullet.records import ControllerSettings, Pose
 from tests.cli_helpers import run_error
 
@@ -85,9 +86,9 @@ def test_a_grasps_contacts_are_judged_against_the_fused_family(monkeypatch):
                                                       "unknown_why": NOT_REVOLUTION}
     second = _answer([0.95, 0.05, 0.0]) | {"shape": "a"}
     records = [object(), object()]
-    monkeypatch.setattr(E, "UNKNOWN_AGAINST_FUSED", False)
+    monkeypatch.setattr(F, "UNKNOWN_AGAINST_FUSED", False)
     assert E.fused_answer(model, [first, second], records=records)["unknown"] is True
-    monkeypatch.setattr(E, "UNKNOWN_AGAINST_FUSED", True)
+    monkeypatch.setattr(F, "UNKNOWN_AGAINST_FUSED", True)
     fused = E.fused_answer(model, [first, second], records=records)
     assert fused["shape"] == "a" and fused["unknown"] is False
     assert model.axis.asked == ["a"]  # only the grasp that named another family is judged

@@ -388,9 +388,9 @@ def check_dataset_out(out: Path, force: bool) -> None:
 def fused_objects(model, answers: Sequence[Mapping]) -> list[dict]:
     """One fused answer per object the recording marks (grasps sharing an ``object`` mark):
     ``{"object", "grasps": [index, ...], "shape", "posterior", "ambiguous", "unknown"}``
-    (``experiments/exploration.py``'s fusion), in order of first grasp; [] where none is
+    (``experiments/fusion.py``), in order of first grasp; [] where none is
     marked."""
-    from ..experiments.exploration import fused_answer
+    from ..experiments.fusion import fused_answer
 
     groups: dict[str, list[Mapping]] = {}
     for a in answers:

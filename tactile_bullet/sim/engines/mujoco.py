@@ -30,7 +30,8 @@ from ...objects.shapes import Shape
 from ...records import ControllerSettings, Pose
 from .base import Contact, Engine
 from .bullet import SWEEP_CLEARANCE, SWEEP_POSES
-from .mujoco_hand import REQUIRED_ACTUATORS, load_hand_spec, name_map, shadow_name
+from .mujoco_cache import compiled_model
+from .mujoco_hand import REQUIRED_ACTUATORS, load_hand_spec, mjcf_path, name_map, shadow_name
 from .mujoco_objects import object_geoms
 
 SUBSTEPS = 2
@@ -38,13 +39,6 @@ SUBSTEPS = 2
 
 OBJECT_BODY = "tactile_bullet_object"
 ALL_BITS = (1 << 31) - 1
-
-
-def mjcf_path() -> Path:
-    """The hand's MJCF, beside the URDF (``hand.urdf_path()``'s folder)."""
-    from ...hand import urdf_path
-
-    return urdf_path().with_name("shadow_hand.xml")
 
 
 @functools.lru_cache(maxsize=4)
@@ -368,7 +362,8 @@ def clear_compiled() -> None:
 
 def _prototype(shape, params, controller, hand_model) -> _Prototype:
     """The compiled hand + object (at the origin) and its indices, made once per shape, sizes,
-    hand and timestep."""
+    hand and timestep (the project's own hand's read from the disk cache where another process
+    compiled it: :mod:`.mujoco_cache`)."""
     digest = controller.hand_model_digest if hand_model == controller.hand_model else None
     key = (id(shape), shape.name, tuple(sorted(params.items())), float(controller.timestep),
            float(controller.phalanx_scale), str(hand_model), digest)  # fmt: skip
@@ -378,28 +373,35 @@ def _prototype(shape, params, controller, hand_model) -> _Prototype:
         return found
     import mujoco
 
-    if hand_model:
+    if hand_model and controller.phalanx_scale != 1.0:
+        raise UsageError("phalanx_scale changes the project's own hand, not a --hand-model")
+    geoms = object_geoms(shape, params)
+
+    def compile_model():
+        spec = (load_hand_spec(hand_model, digest) if hand_model
+                else mujoco.MjSpec.from_string(_hand_xml(str(mjcf_path()))))  # fmt: skip
         if controller.phalanx_scale != 1.0:
-            raise UsageError("phalanx_scale changes the project's own hand, not a --hand-model")
-        spec = load_hand_spec(hand_model, digest)
+            _scale_phalanges(spec, controller.phalanx_scale)
+        spec.option.timestep = controller.timestep / SUBSTEPS
+        body = spec.worldbody.add_body(name=OBJECT_BODY)
+        for k, geom in enumerate(geoms):
+            # collides with every hand geom that collides at all, never with itself
+            extra = {"contype": 0, "conaffinity": ALL_BITS, "condim": 3,
+                     "rgba": [0.25, 0.55, 0.85, 1.0]}  # fmt: skip
+            if geom.kind == "mesh":
+                spec.add_mesh(name=f"object{k}", uservert=np.asarray(geom.vertices).ravel())
+                body.add_geom(type=mujoco.mjtGeom.mjGEOM_MESH, meshname=f"object{k}", **extra)
+            else:
+                kind = getattr(mujoco.mjtGeom, f"mjGEOM_{geom.kind.upper()}")
+                size = [*geom.size, 0.0, 0.0][:3]
+                body.add_geom(type=kind, size=size, quat=list(geom.quat), **extra)
+        return spec.compile()
+
+    if hand_model:  # its file may read others (meshes): compiled, not kept on disk
+        model = compile_model()
     else:
-        spec = mujoco.MjSpec.from_string(_hand_xml(str(mjcf_path())))
-    if controller.phalanx_scale != 1.0:
-        _scale_phalanges(spec, controller.phalanx_scale)
-    spec.option.timestep = controller.timestep / SUBSTEPS
-    body = spec.worldbody.add_body(name=OBJECT_BODY)
-    for k, geom in enumerate(object_geoms(shape, params)):
-        # collides with every hand geom that collides at all, never with itself
-        extra = {"contype": 0, "conaffinity": ALL_BITS, "condim": 3,
-                 "rgba": [0.25, 0.55, 0.85, 1.0]}  # fmt: skip
-        if geom.kind == "mesh":
-            spec.add_mesh(name=f"object{k}", uservert=np.asarray(geom.vertices).ravel())
-            body.add_geom(type=mujoco.mjtGeom.mjGEOM_MESH, meshname=f"object{k}", **extra)
-        else:
-            kind = getattr(mujoco.mjtGeom, f"mjGEOM_{geom.kind.upper()}")
-            size = [*geom.size, 0.0, 0.0][:3]
-            body.add_geom(type=kind, size=size, quat=list(geom.quat), **extra)
-    model = spec.compile()
+        step = controller.timestep / SUBSTEPS
+        model = compiled_model(geoms, step, float(controller.phalanx_scale), compile_model)
     holder = SimpleNamespace(_mj=mujoco)
     MujocoEngine._index(holder, model)
     proto = _Prototype(shape, model, vars(holder), [])

@@ -1,0 +1,151 @@
+"""The MuJoCo engine's compiled models (the project's hand + one object), kept on disk between
+processes.
+
+Compiling the hand with an object costs 3-5 ms for a sphere or a cylinder and ~35 ms for a
+torus's 24 convex pieces, against 0.3-1.5 ms to read the compiled model back (MuJoCo's binary
+MJB format); a process keeps its last few models in memory already (``mujoco._PROTOTYPES``), so
+this saves the first grasp of each size in every later process: a ``generate`` run again, a
+resumed one, the tour, the tests. Models of a hand given with ``--hand-model`` are not kept
+(its file may read other files, which no key here covers).
+
+An entry is used only when it passes every check, as the shape fit's grid cache
+(``perception/grid_cache.py``): its key (the package version, this file's :data:`FORMAT`,
+MuJoCo's version, the hand's MJCF and the sources that build the model) equals the running
+code's, it was written for the same object geoms and timestep, and a keyed digest
+(HMAC-SHA256 keyed by that key) over the model's bytes matches the one stored beside them.
+Anything else (absent, truncated, edited, another version) is compiled again and rewritten
+atomically; a cache folder that cannot be written costs speed only. The folder is trusted as
+the package itself is: whoever can write it and read this package could forge an entry.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import hmac
+import json
+import zipfile
+from collections.abc import Callable, Sequence
+from functools import cache
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+FORMAT = 1
+"""Bumped when an entry's layout changes."""
+
+ENABLED = True
+"""Read and write entries; benchmarks turn it off to time a compile."""
+
+_SOURCES = (
+    "sim/engines/mujoco.py",
+    "sim/engines/mujoco_hand.py",
+    "sim/engines/mujoco_objects.py",
+    "sim/engines/mujoco_cache.py",
+)
+"""Modules whose code decides a compiled model (paths inside the package)."""
+
+_MEMBERS = frozenset({"meta", "mjb"})
+_LIMIT = 64 << 20
+"""Largest entry read (a torus's model is ~0.7 MB)."""
+
+
+@cache
+def code_key() -> str:
+    """sha256 over the version, :data:`FORMAT`, MuJoCo's version, the hand's MJCF and the
+    sources in :data:`_SOURCES`; "" where any cannot be read (then nothing is cached)."""
+    import mujoco
+
+    import tactile_bullet
+
+    from .mujoco_hand import mjcf_path
+
+    root = Path(tactile_bullet.__file__).parent
+    digest = hashlib.sha256(
+        f"{tactile_bullet.__version__}\n{FORMAT}\n{mujoco.__version__}\n".encode()
+    )
+    try:
+        digest.update(b"mjcf\n" + mjcf_path().read_bytes())
+        for name in _SOURCES:
+            digest.update(name.encode() + b"\n" + (root / name).read_bytes())
+    except OSError:
+        return ""
+    return digest.hexdigest()
+
+
+def model_key(geoms: Sequence[Any], timestep: float, phalanx_scale: float) -> str:
+    """sha256 of what a model of the project's hand is compiled from besides the code: the
+    object's geoms (kind, size, orientation, vertices), the simulation step and the phalanx
+    scale."""
+    digest = hashlib.sha256(code_key().encode())
+    digest.update(np.array([timestep, phalanx_scale], dtype="<f8").tobytes())
+    for geom in geoms:
+        digest.update(f"|{geom.kind}|".encode())
+        for part in (geom.size, geom.quat, geom.vertices):
+            values = np.asarray(() if part is None else part, dtype="<f8")
+            digest.update(str(values.shape).encode() + values.tobytes())
+    return digest.hexdigest()
+
+
+def entry_path(key: str) -> Path:
+    from ...objects.mesh_cache import cache_dir
+
+    return cache_dir() / "mujoco" / f"{key[:32]}.npz"
+
+
+def _digest(mjb: bytes) -> str:
+    return hmac.new(bytes.fromhex(code_key()), mjb, hashlib.sha256).hexdigest()
+
+
+def _read(path: Path, key: str):
+    """The model stored at ``path`` for ``key``, or None where any check fails."""
+    import mujoco
+
+    from ...errors import UsageError
+    from ...files import check_npz_members
+
+    try:
+        check_npz_members(path, "MuJoCo model cache", lambda n: n in _MEMBERS, _LIMIT)
+        with np.load(path, allow_pickle=False) as data:
+            meta = json.loads(str(data["meta"]))
+            mjb = np.asarray(data["mjb"], dtype=np.uint8).tobytes()
+    except (OSError, ValueError, KeyError, TypeError, EOFError, zipfile.BadZipFile, UsageError):
+        return None
+    if not isinstance(meta, dict) or meta.get("key") != key or meta.get("hmac") != _digest(mjb):
+        return None
+    try:
+        return mujoco.MjModel.from_binary_path("model.mjb", {"model.mjb": mjb})
+    except Exception:  # noqa: BLE001 - MuJoCo's own error types; a bad entry is recompiled
+        return None
+
+
+def _write(path: Path, key: str, model) -> None:
+    import mujoco
+
+    from ...errors import UsageError
+    from ...files import atomic_path
+
+    buffer = np.zeros(mujoco.mj_sizeModel(model), dtype=np.uint8)
+    mujoco.mj_saveModel(model, None, buffer)
+    meta = {"key": key, "format": FORMAT, "hmac": _digest(buffer.tobytes())}
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        with atomic_path(path, "MuJoCo model cache") as tmp, open(tmp, "wb") as fh:
+            np.savez(fh, meta=np.array(json.dumps(meta)), mjb=buffer)
+    except (OSError, UsageError):
+        pass
+
+
+def compiled_model(geoms: Sequence[Any], timestep: float, phalanx_scale: float,
+                   compile_model: Callable[[], Any]):  # fmt: skip
+    """``compile_model()`` (the hand with ``geoms``), read from the cache where a valid entry
+    exists, else compiled and stored."""
+    if not ENABLED or not code_key():
+        return compile_model()
+    key = model_key(geoms, timestep, phalanx_scale)
+    path = entry_path(key)
+    model = _read(path, key) if path.is_file() else None
+    if model is None:
+        model = compile_model()
+        _write(path, key, model)
+    return model

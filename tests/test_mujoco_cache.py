@@ -1,0 +1,130 @@
+"""MuJoCo's compiled models kept on disk between processes (``sim/engines/mujoco_cache.py``):
+read back only when valid, the same grasps from a model read back as from one compiled."""
+
+from __future__ import annotations
+
+import json
+import zipfile
+
+import numpy as np
+import pytest
+
+pytest.importorskip("mujoco")
+
+from tactile_bullet.records import ControllerSettings, Pose  # noqa: E402
+from tactile_bullet.sim.engines import mujoco as M  # noqa: E402
+from tactile_bullet.sim.engines import mujoco_cache as C  # noqa: E402
+from tactile_bullet.sim.grasp import simulate_grasp  # noqa: E402
+
+CTL = ControllerSettings(engine="mujoco")
+SPHERE = ("sphere", {"radius": 0.047})
+
+
+@pytest.fixture
+def cache(tmp_path, monkeypatch):
+    monkeypatch.setenv("TACTILE_BULLET_CACHE", str(tmp_path / "cache"))
+    M.clear_compiled()
+    yield tmp_path / "cache" / "mujoco"
+    M.clear_compiled()
+
+
+def _entries(folder):
+    return sorted(folder.glob("*.npz")) if folder.is_dir() else []
+
+
+def _no_compiling(monkeypatch):
+    import mujoco
+
+    def refuse(self):
+        pytest.fail("compiled although a valid entry was on disk")
+
+    monkeypatch.setattr(mujoco.MjSpec, "compile", refuse)
+
+
+def test_a_model_read_back_grasps_exactly_as_the_compiled_one(cache, monkeypatch):
+    compiled = simulate_grasp(*SPHERE, Pose((0.004, 0.0, 0.0)), CTL)
+    (entry,) = _entries(cache)
+    M.clear_compiled()  # as a new process: nothing in memory, the entry on disk
+    _no_compiling(monkeypatch)
+    read = simulate_grasp(*SPHERE, Pose((0.004, 0.0, 0.0)), CTL)
+    for field in ("final_angles", "angles", "efforts"):
+        np.testing.assert_array_equal(getattr(read, field), getattr(compiled, field))
+    assert _entries(cache) == [entry]
+
+
+def test_each_size_and_timestep_has_its_own_entry(cache):
+    simulate_grasp(*SPHERE, Pose(), CTL)
+    simulate_grasp("sphere", {"radius": 0.05}, Pose(), CTL)
+    simulate_grasp(*SPHERE, Pose(), ControllerSettings(engine="mujoco", timestep=1 / 200))
+    assert len(_entries(cache)) == 3
+
+
+@pytest.mark.parametrize("damage", ["truncated", "edited", "other key", "not a zip"])
+def test_a_damaged_entry_is_compiled_again_never_used(cache, damage, monkeypatch):
+    good = simulate_grasp(*SPHERE, Pose(), CTL)
+    (entry,) = _entries(cache)
+    data = entry.read_bytes()
+    if damage == "truncated":
+        entry.write_bytes(data[: len(data) // 2])
+    elif damage == "not a zip":
+        entry.write_bytes(b"not a model")
+    else:
+        with np.load(entry) as z:
+            meta, mjb = json.loads(str(z["meta"])), np.array(z["mjb"])
+        if damage == "edited":
+            mjb[len(mjb) // 2] ^= 0xFF  # its digest no longer matches
+        else:
+            meta["key"] = "0" * 64
+        with zipfile.ZipFile(entry, "w") as zf:
+            for name, value in (("meta", np.array(json.dumps(meta))), ("mjb", mjb)):
+                with zf.open(f"{name}.npy", "w") as fh:
+                    np.lib.format.write_array(fh, value)
+    M.clear_compiled()
+    compiles = _counting_compiles(monkeypatch)
+    again = simulate_grasp(*SPHERE, Pose(), CTL)
+    assert compiles == [1]  # the entry was not used: the model was compiled again
+    np.testing.assert_array_equal(again.final_angles, good.final_angles)
+    key = C.model_key(_sphere_geoms(), CTL.timestep / M.SUBSTEPS, 1.0)
+    assert C._read(entry, key) is not None  # and rewritten, valid
+
+
+def _counting_compiles(monkeypatch) -> list[int]:
+    import mujoco
+
+    count = [0]
+    original = mujoco.MjSpec.compile
+
+    def counted(self):
+        count[0] += 1
+        return original(self)
+
+    monkeypatch.setattr(mujoco.MjSpec, "compile", counted)
+    return count
+
+
+def _sphere_geoms():
+    from tactile_bullet.objects.shapes import BUILTIN_SHAPES
+    from tactile_bullet.sim.engines.mujoco_objects import object_geoms
+
+    shape = {s.name: s for s in BUILTIN_SHAPES}["sphere"]
+    return object_geoms(shape, shape.resolve(SPHERE[1]))
+
+
+def test_an_unwritable_cache_costs_only_speed(tmp_path, monkeypatch):
+    blocker = tmp_path / "file"
+    blocker.write_text("not a folder")
+    monkeypatch.setenv("TACTILE_BULLET_CACHE", str(blocker))
+    M.clear_compiled()
+    record = simulate_grasp(*SPHERE, Pose(), CTL)
+    assert record.final_angles.shape and blocker.read_text() == "not a folder"
+    M.clear_compiled()
+
+
+def test_the_key_follows_the_code_and_the_hand():
+    assert len(C.code_key()) == 64
+    assert "sim/engines/mujoco_objects.py" in C._SOURCES
+    geoms = _sphere_geoms()
+    base = C.model_key(geoms, 0.002, 1.0)
+    assert C.model_key(geoms, 0.002, 1.0) == base
+    assert C.model_key(geoms, 0.001, 1.0) != base
+    assert C.model_key(geoms, 0.002, 1.1) != base

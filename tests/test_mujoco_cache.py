@@ -128,3 +128,26 @@ def test_the_key_follows_the_code_and_the_hand():
     assert C.model_key(geoms, 0.002, 1.0) == base
     assert C.model_key(geoms, 0.001, 1.0) != base
     assert C.model_key(geoms, 0.002, 1.1) != base
+
+
+def test_the_folder_keeps_the_most_recently_used_entries_within_its_budget(tmp_path):
+    import os
+
+    for i in range(10):
+        entry = tmp_path / f"{i:02d}.npz"
+        entry.write_bytes(b"x" * 1000)
+        os.utime(entry, (1000.0 + i, 1000.0 + i))  # 00 the least recently used
+    assert C.prune(tmp_path, budget=20_000) == 0
+    assert C.prune(tmp_path, budget=8_000) == 4  # down to 3/4 of the budget: 6 kB
+    assert sorted(e.name for e in tmp_path.glob("*.npz")) == [f"{i:02d}.npz" for i in range(4, 10)]
+
+
+def test_reading_an_entry_marks_it_used(cache):
+    import os
+
+    simulate_grasp(*SPHERE, Pose(), CTL)
+    (entry,) = _entries(cache)
+    os.utime(entry, (1000.0, 1000.0))
+    M.clear_compiled()
+    simulate_grasp(*SPHERE, Pose(), CTL)
+    assert entry.stat().st_mtime > 1000.0

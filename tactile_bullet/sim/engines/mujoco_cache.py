@@ -14,7 +14,8 @@ MuJoCo's version, the hand's MJCF and the sources that build the model) equals t
 code's, it was written for the same object geoms and timestep, and a keyed digest
 (HMAC-SHA256 keyed by that key) over the model's bytes matches the one stored beside them.
 Anything else (absent, truncated, edited, another version) is compiled again and rewritten
-atomically; a cache folder that cannot be written costs speed only. The folder is trusted as
+atomically; a cache folder that cannot be written costs speed only. The folder is kept under
+:data:`BUDGET` by deleting the least recently used entries. The folder is trusted as
 the package itself is: whoever can write it and read this package could forge an entry.
 """
 
@@ -23,6 +24,7 @@ from __future__ import annotations
 import hashlib
 import hmac
 import json
+import os
 import zipfile
 from collections.abc import Callable, Sequence
 from functools import cache
@@ -44,6 +46,12 @@ _SOURCES = (
     "sim/engines/mujoco_cache.py",
 )
 """Modules whose code decides a compiled model (paths inside the package)."""
+
+BUDGET = 256 << 20
+"""Bytes of entries kept: past it, the least recently used are deleted down to 3/4 of it (a
+randomised sweep's sizes never recur, and a torus's entry is ~0.7 MB)."""
+PRUNE_EVERY = 32
+"""Entries a process writes between two checks of the folder's size."""
 
 _MEMBERS = frozenset({"meta", "mjb"})
 _LIMIT = 64 << 20
@@ -114,9 +122,14 @@ def _read(path: Path, key: str):
     if not isinstance(meta, dict) or meta.get("key") != key or meta.get("hmac") != _digest(mjb):
         return None
     try:
-        return mujoco.MjModel.from_binary_path("model.mjb", {"model.mjb": mjb})
+        model = mujoco.MjModel.from_binary_path("model.mjb", {"model.mjb": mjb})
     except Exception:  # noqa: BLE001 - MuJoCo's own error types; a bad entry is recompiled
         return None
+    try:
+        os.utime(path)  # used: the last to be pruned
+    except OSError:
+        pass
+    return model
 
 
 def _write(path: Path, key: str, model) -> None:
@@ -133,7 +146,42 @@ def _write(path: Path, key: str, model) -> None:
         with atomic_path(path, "MuJoCo model cache") as tmp, open(tmp, "wb") as fh:
             np.savez(fh, meta=np.array(json.dumps(meta)), mjb=buffer)
     except (OSError, UsageError):
-        pass
+        return
+    global _WRITTEN
+    _WRITTEN += 1
+    if _WRITTEN % PRUNE_EVERY == 0:
+        prune(path.parent)
+
+
+_WRITTEN = 0
+
+
+def prune(folder: Path, budget: int | None = None) -> int:
+    """Delete the least recently used entries of ``folder`` while they hold more than
+    ``budget`` bytes (default :data:`BUDGET`), down to 3/4 of it; returns how many were
+    deleted. Another process reading one as it goes compiles that model again."""
+    budget = BUDGET if budget is None else budget
+    entries = []
+    for entry in folder.glob("*.npz"):
+        try:
+            info = entry.stat()
+        except OSError:
+            continue
+        entries.append((info.st_mtime, info.st_size, entry))
+    total = sum(size for _, size, _ in entries)
+    if total <= budget:
+        return 0
+    deleted = 0
+    for _, size, entry in sorted(entries):
+        if total <= budget * 3 // 4:
+            break
+        try:
+            entry.unlink()
+        except OSError:
+            continue
+        total -= size
+        deleted += 1
+    return deleted
 
 
 def compiled_model(geoms: Sequence[Any], timestep: float, phalanx_scale: float,

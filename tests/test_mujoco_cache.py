@@ -4,7 +4,6 @@ read back only when valid, the same grasps from a model read back as from one co
 from __future__ import annotations
 
 import json
-import zipfile
 
 import numpy as np
 import pytest
@@ -29,7 +28,7 @@ def cache(tmp_path, monkeypatch):
 
 
 def _entries(folder):
-    return sorted(folder.glob("*.npz")) if folder.is_dir() else []
+    return sorted(folder.glob("*.mjb")) if folder.is_dir() else []
 
 
 def _no_compiling(monkeypatch):
@@ -59,26 +58,23 @@ def test_each_size_and_timestep_has_its_own_entry(cache):
     assert len(_entries(cache)) == 3
 
 
-@pytest.mark.parametrize("damage", ["truncated", "edited", "other key", "not a zip"])
+@pytest.mark.parametrize("damage", ["truncated", "edited", "other key", "no digest",
+                                    "not json"])  # fmt: skip
 def test_a_damaged_entry_is_compiled_again_never_used(cache, damage, monkeypatch):
     good = simulate_grasp(*SPHERE, Pose(), CTL)
     (entry,) = _entries(cache)
-    data = entry.read_bytes()
+    meta_path = entry.with_suffix(".json")
+    data, meta = entry.read_bytes(), json.loads(meta_path.read_text())
     if damage == "truncated":
         entry.write_bytes(data[: len(data) // 2])
-    elif damage == "not a zip":
-        entry.write_bytes(b"not a model")
+    elif damage == "edited":
+        entry.write_bytes(data[:1000] + bytes([data[1000] ^ 0xFF]) + data[1001:])
+    elif damage == "other key":
+        meta_path.write_text(json.dumps(meta | {"key": "0" * 64}))
+    elif damage == "no digest":
+        meta_path.write_text(json.dumps({k: v for k, v in meta.items() if k != "hmac"}))
     else:
-        with np.load(entry) as z:
-            meta, mjb = json.loads(str(z["meta"])), np.array(z["mjb"])
-        if damage == "edited":
-            mjb[len(mjb) // 2] ^= 0xFF  # its digest no longer matches
-        else:
-            meta["key"] = "0" * 64
-        with zipfile.ZipFile(entry, "w") as zf:
-            for name, value in (("meta", np.array(json.dumps(meta))), ("mjb", mjb)):
-                with zf.open(f"{name}.npy", "w") as fh:
-                    np.lib.format.write_array(fh, value)
+        meta_path.write_text("not json")
     M.clear_compiled()
     compiles = _counting_compiles(monkeypatch)
     again = simulate_grasp(*SPHERE, Pose(), CTL)
@@ -134,12 +130,15 @@ def test_the_folder_keeps_the_most_recently_used_entries_within_its_budget(tmp_p
     import os
 
     for i in range(10):
-        entry = tmp_path / f"{i:02d}.npz"
+        entry = tmp_path / f"{i:02d}.mjb"
         entry.write_bytes(b"x" * 1000)
+        entry.with_suffix(".json").write_text("{}")
         os.utime(entry, (1000.0 + i, 1000.0 + i))  # 00 the least recently used
     assert C.prune(tmp_path, budget=20_000) == 0
     assert C.prune(tmp_path, budget=8_000) == 4  # down to 3/4 of the budget: 6 kB
-    assert sorted(e.name for e in tmp_path.glob("*.npz")) == [f"{i:02d}.npz" for i in range(4, 10)]
+    kept = [f"{i:02d}" for i in range(4, 10)]
+    assert sorted(e.stem for e in tmp_path.glob("*.mjb")) == kept
+    assert sorted(e.stem for e in tmp_path.glob("*.json")) == kept  # each digest with its model
 
 
 def test_reading_an_entry_marks_it_used(cache):

@@ -1,9 +1,10 @@
 """The MuJoCo engine's compiled models (the project's hand + one object), kept on disk between
 processes.
 
-Compiling the hand with an object costs 3-5 ms for a sphere or a cylinder and ~35 ms for a
-torus's 24 convex pieces, against 0.3-1.5 ms to read the compiled model back (MuJoCo's binary
-MJB format); a process keeps its last few models in memory already (``mujoco._PROTOTYPES``), so
+Compiling the hand with an object costs 2-2.5 ms for a sphere, a cylinder or a cone, 8 ms for
+a hyperboloid's slabs and ~15 ms for a torus's 24 convex pieces, against 0.3-0.9 ms to read the
+compiled model back (MuJoCo's binary MJB format; ``benchmarks/bench_mujoco_cache.py``); a
+process keeps its last few models in memory already (``mujoco._PROTOTYPES``), so
 this saves the first grasp of each size in every later process: a ``generate`` run again, a
 resumed one, the tour, the tests. Models of a hand given with ``--hand-model`` are not kept
 (its file may read other files, which no key here covers).
@@ -12,7 +13,8 @@ An entry is used only when it passes every check, as the shape fit's grid cache
 (``perception/grid_cache.py``): its key (the package version, this file's :data:`FORMAT`,
 MuJoCo's version, the hand's MJCF and the sources that build the model) equals the running
 code's, it was written for the same object geoms and timestep, and a keyed digest
-(HMAC-SHA256 keyed by that key) over the model's bytes matches the one stored beside them.
+(HMAC-SHA256 keyed by that key) over the model's bytes matches the one stored beside them (a
+``.json`` of the same name).
 Anything else (absent, truncated, edited, another version) is compiled again and rewritten
 atomically; a cache folder that cannot be written costs speed only. The folder is kept under
 :data:`BUDGET` by deleting the least recently used entries. The folder is trusted as
@@ -25,7 +27,6 @@ import hashlib
 import hmac
 import json
 import os
-import zipfile
 from collections.abc import Callable, Sequence
 from functools import cache
 from pathlib import Path
@@ -53,7 +54,6 @@ randomised sweep's sizes never recur, and a torus's entry is ~0.7 MB)."""
 PRUNE_EVERY = 32
 """Entries a process writes between two checks of the folder's size."""
 
-_MEMBERS = frozenset({"meta", "mjb"})
 _LIMIT = 64 << 20
 """Largest entry read (a torus's model is ~0.7 MB)."""
 
@@ -96,9 +96,11 @@ def model_key(geoms: Sequence[Any], timestep: float, phalanx_scale: float) -> st
 
 
 def entry_path(key: str) -> Path:
+    """The entry's model (MuJoCo's binary format); its key and digest lie beside it in a
+    ``.json`` of the same name."""
     from ...objects.mesh_cache import cache_dir
 
-    return cache_dir() / "mujoco" / f"{key[:32]}.npz"
+    return cache_dir() / "mujoco" / f"{key[:32]}.mjb"
 
 
 def _digest(mjb: bytes) -> str:
@@ -109,20 +111,19 @@ def _read(path: Path, key: str):
     """The model stored at ``path`` for ``key``, or None where any check fails."""
     import mujoco
 
-    from ...errors import UsageError
-    from ...files import check_npz_members
-
     try:
-        check_npz_members(path, "MuJoCo model cache", lambda n: n in _MEMBERS, _LIMIT)
-        with np.load(path, allow_pickle=False) as data:
-            meta = json.loads(str(data["meta"]))
-            mjb = np.asarray(data["mjb"], dtype=np.uint8).tobytes()
-    except (OSError, ValueError, KeyError, TypeError, EOFError, zipfile.BadZipFile, UsageError):
+        meta = json.loads(path.with_suffix(".json").read_text())
+        if not isinstance(meta, dict) or meta.get("key") != key:
+            return None
+        if path.stat().st_size > _LIMIT:
+            return None
+        mjb = path.read_bytes()
+    except (OSError, ValueError, UnicodeDecodeError):
         return None
-    if not isinstance(meta, dict) or meta.get("key") != key or meta.get("hmac") != _digest(mjb):
+    if not hmac.compare_digest(str(meta.get("hmac")), _digest(mjb)):
         return None
-    try:
-        model = mujoco.MjModel.from_binary_path("model.mjb", {"model.mjb": mjb})
+    try:  # from the file (3x faster than from memory for a torus's 0.7 MB)
+        model = mujoco.MjModel.from_binary_path(str(path))
     except Exception:  # noqa: BLE001 - MuJoCo's own error types; a bad entry is recompiled
         return None
     try:
@@ -140,11 +141,14 @@ def _write(path: Path, key: str, model) -> None:
 
     buffer = np.zeros(mujoco.mj_sizeModel(model), dtype=np.uint8)
     mujoco.mj_saveModel(model, None, buffer)
-    meta = {"key": key, "format": FORMAT, "hmac": _digest(buffer.tobytes())}
+    mjb = buffer.tobytes()
+    meta = {"key": key, "format": FORMAT, "hmac": _digest(mjb)}
     try:
         path.parent.mkdir(parents=True, exist_ok=True)
-        with atomic_path(path, "MuJoCo model cache") as tmp, open(tmp, "wb") as fh:
-            np.savez(fh, meta=np.array(json.dumps(meta)), mjb=buffer)
+        with atomic_path(path, "MuJoCo model cache") as tmp:
+            tmp.write_bytes(mjb)
+        with atomic_path(path.with_suffix(".json"), "MuJoCo model cache") as tmp:
+            tmp.write_text(json.dumps(meta))
     except (OSError, UsageError):
         return
     global _WRITTEN
@@ -157,12 +161,12 @@ _WRITTEN = 0
 
 
 def prune(folder: Path, budget: int | None = None) -> int:
-    """Delete the least recently used entries of ``folder`` while they hold more than
+    """Delete the least recently used entries of ``folder`` while their models hold more than
     ``budget`` bytes (default :data:`BUDGET`), down to 3/4 of it; returns how many were
     deleted. Another process reading one as it goes compiles that model again."""
     budget = BUDGET if budget is None else budget
     entries = []
-    for entry in folder.glob("*.npz"):
+    for entry in folder.glob("*.mjb"):
         try:
             info = entry.stat()
         except OSError:
@@ -177,6 +181,7 @@ def prune(folder: Path, budget: int | None = None) -> int:
             break
         try:
             entry.unlink()
+            entry.with_suffix(".json").unlink(missing_ok=True)
         except OSError:
             continue
         total -= size

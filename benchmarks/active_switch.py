@@ -1,9 +1,11 @@
 """The planner with one of its declared switches off and on (``--switch``:
 ``AVOID_VISITED``, no pose grasped twice; ``OWN_HAND_HYPOTHESES``, the hypotheses fitted with
-the hand's own coefficients) on the ``active`` protocol's objects: the ``planned`` strategy on
-every column asked for, the same objects and seeds, each explored to three grasps; per column,
-the objects right after 1, 2 and 3 grasps and with the stopping rule, and the declared rule's
-verdict (docs/exploration.md, "Declared before seed 2" and "Declared before seed 3").
+the hand's own coefficients; ``TURN_SECOND``, the second grasp a turn) on the ``active``
+protocol's objects: the ``planned`` strategy on every column asked for, the same objects and
+seeds, each explored to three grasps; per column, the objects right after 1, 2 and 3 grasps and
+with the stopping rule, and the declared rule's verdict (docs/exploration.md, "Declared before
+seed 2", "... seed 3" and "... seed 8"). ``--random`` also runs the random strategy once, for
+issue 28's comparison after two grasps.
 
     python benchmarks/active_switch.py --switch AVOID_VISITED [--scale full] [--seed 2] \
         [--other-hand menagerie=M.xml --other-hand gymnasium=G.xml] [--columns ...] \
@@ -21,12 +23,13 @@ from pathlib import Path
 from _report import provenance  # first: this checkout ahead of an installed copy
 
 from tactile_bullet.experiments import exploration
-from tactile_bullet.experiments.active import GRASPS, columns, score_column
+from tactile_bullet.experiments.active import GRASPS, OUT_OF_FAMILY, columns, score_column
 from tactile_bullet.learn import doubt
 from tactile_bullet.learn.default import default_model
 
-SWITCHES = ("AVOID_VISITED", "OWN_HAND_HYPOTHESES")
+SWITCHES = ("AVOID_VISITED", "OWN_HAND_HYPOTHESES", "TURN_SECOND")
 HOLDABLE = {"AVOID_VISITED": exploration, "OWN_HAND_HYPOTHESES": exploration,
+            "TURN_SECOND": exploration,
             "OWN_HAND_COEFFICIENTS": doubt}  # fmt: skip
 """Switches ``--hold-off`` keeps off in both arms (a rule that came after the run to
 reproduce: the seed 2 judgement predates both own-hand rules)."""
@@ -49,6 +52,32 @@ def verdict(rows: dict[str, dict[str, dict]]) -> tuple[bool, list[str]]:
     return gain3 >= 1 and worst >= -1 and stop >= 0, checks
 
 
+def verdict_turn(rows: dict[str, dict[str, dict]]) -> tuple[bool, list[str]]:
+    """The rule declared before seed 8 (``TURN_SECOND``): in-family columns (a) at least one
+    more object right after 2 grasps, (b) no column losing more than one after 2 or 3, (c)
+    with the stopping rule not fewer; out of family (d) at most 4 fewer unknown after 2."""
+    def count(row, k):
+        return sum(r[k] for r in row["right"])
+
+    inside = {c: r for c, r in rows.items() if c != OUT_OF_FAMILY}
+    gain2 = sum(count(r["with"], 1) - count(r["without"], 1) for r in inside.values())
+    worst = min(count(r["with"], k) - count(r["without"], k)
+                for r in inside.values() for k in (1, 2))
+    stop = sum(sum(r["with"]["stop_right"]) - sum(r["without"]["stop_right"])
+               for r in inside.values())
+    oof = rows.get(OUT_OF_FAMILY)
+    lost = 0 if oof is None else count(oof["without"], 1) - count(oof["with"], 1)
+    checks = [f"(a) in-family objects right after 2 grasps, summed: {gain2:+d} (needs >= +1)",
+              f"(b) a column's largest loss after 2 or 3 grasps: {-min(worst, 0)} (at most 1)",
+              f"(c) right with the stopping rule, summed: {stop:+d} (must not fall)",
+              f"(d) out-of-family objects no longer unknown after 2 grasps: {lost} (at most 4)"]
+    return gain2 >= 1 and worst >= -1 and stop >= 0 and lost <= 4, checks
+
+
+VERDICTS = {"TURN_SECOND": verdict_turn}
+"""Each switch's declared rule, where it is not :func:`verdict`'s."""
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--scale", default="full", help="the protocol's scale (quick, full)")
@@ -59,6 +88,8 @@ def main(argv=None) -> int:
     ap.add_argument("--hold-off", action="append", default=[], choices=sorted(HOLDABLE),
                     help="keep this switch off in both arms (repeatable)")
     ap.add_argument("--json", help="write every row here as well")
+    ap.add_argument("--random", action="store_true",
+                    help="also run the random strategy (the switch off) for reference")
     args = ap.parse_args(argv)
     provenance(argv)
     hands = dict(h.split("=", 1) for h in args.other_hand)
@@ -71,17 +102,27 @@ def main(argv=None) -> int:
         wanted = args.columns.split(",") if args.columns else list(table)
         for name in wanted:
             controller, objects = table[name]
-            for label, on in (("without", False), ("with", True)):
+            arms = [("without", False), ("with", True)]
+            if args.random:
+                arms.append(("random", False))
+            for label, on in arms:
                 setattr(exploration, args.switch, on)
                 started = time.perf_counter()
-                row, _ = score_column(objects, controller, model, "planned", args.seed)
+                strategy = "random" if label == "random" else "planned"
+                row, _ = score_column(objects, controller, model, strategy, args.seed)
                 rows.setdefault(name, {})[label] = row
                 right = [sum(r[k] for r in row["right"]) for k in range(GRASPS)]
                 print(f"{name:13s} {label:8s} objects {row['objects']:3d}  right after 1/2/3 "
                       f"grasps {'/'.join(map(str, right))}  with stopping "
                       f"{sum(row['stop_right'])} in {row['mean_grasps']:.2f} grasps  "
                       f"({time.perf_counter() - started:.0f} s)", flush=True)  # fmt: skip
-    kept, checks = verdict(rows)
+    kept, checks = VERDICTS.get(args.switch, verdict)(rows)
+    if args.random:
+        inside = [c for c in rows if c != OUT_OF_FAMILY]
+        for label in ("with", "random"):
+            right = sum(sum(r[1] for r in rows[c][label]["right"]) for c in inside)
+            total = sum(rows[c][label]["objects"] for c in inside)
+            print(f"in-family objects right after 2 grasps, {label}: {right} of {total}")
     print("\n".join(checks))
     print("declared rule:", "kept" if kept else "reverted")
     if args.json:

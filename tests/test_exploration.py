@@ -173,6 +173,26 @@ def test_the_planner_can_leave_out_the_poses_already_grasped(monkeypatch):
     assert not {(0.0, 0.0, 0.0), decision["move"]} & set(third["gains"])
 
 
+@pytest.mark.slow
+def test_the_second_grasp_can_be_a_turn_of_the_hand(monkeypatch):
+    """With ``TURN_SECOND`` the second grasp's candidates are the reachable turns only (the
+    sign by expected gain); the third decision weighs every move again."""
+    from tactile_bullet.learn.default import default_model
+    from tactile_bullet.sim.grasp import simulate_grasp
+
+    monkeypatch.setattr(E, "TURN_SECOND", True)
+    ctl, size = ControllerSettings(engine="mujoco"), {"waist_radius": 0.035}
+    first = Pose((0.008, 0.0, 0.0), math.radians(10.0))  # +20 deg would leave the reach
+    grasps = [E.Grasp(simulate_grasp("hyperboloid", size, first, ctl), first)]
+    cache = E.SimulationCache()
+    decision = E.plan(grasps, default_model(), ctl, cache=cache)
+    assert set(decision["gains"]) == {(0.0, 0.0, -20.0)} and decision["move"] == (0.0, 0.0, -20.0)
+    second = decision["pose"]
+    grasps.append(E.Grasp(simulate_grasp("hyperboloid", size, second, ctl), second))
+    third = E.plan(grasps, default_model(), ctl, cache=cache)
+    assert set(third["gains"]) == set(E.reachable_moves(first))
+
+
 def test_a_decisions_grasps_simulated_on_every_core_are_the_grasps_made_here():
     """prefetch runs a decision's new hypothesis grasps on forked workers (where it may): each
     record equals the one simulated in this process, a refused size is no outcome, and a

@@ -77,6 +77,13 @@ judged on seed 2 of the ``active`` protocol, it gained no object after three gra
 one with the stopping rule (docs/exploration.md); ``benchmarks/active_switch.py`` turns it
 on to reproduce that."""
 
+TURN_SECOND = False
+"""Make the second grasp a turn of the hand about the palm normal (the reachable rotation
+moves of :data:`MOVES`, the sign by expected gain; every move where no turn is reachable);
+later grasps are planned over every move. Declared before seed 8 (docs/exploration.md):
+on seeds 4, 5 and 7 a random turn as the second grasp righted 20 of 175 objects, a random
+shift 8 of 353, and the planner's own turns none (-4 of 130). ``benchmarks/active_switch.py``
+turns it on."""
 
 FUSE_REPEATS = False
 """Fuse a grasp that repeats an earlier one (the same pose and final joint angles: in
@@ -388,6 +395,8 @@ def plan(grasps: Sequence[Grasp], model, controller: ControllerSettings,
     reachable = reachable_moves(first, moves)
     if AVOID_VISITED:
         reachable = unvisited(reachable, first, [g.pose for g in grasps])
+    if TURN_SECOND and len(keep) == 1:
+        reachable = [m for m in reachable if m[2] != 0] or reachable
     cache.prefetch([(h.shape, sizes, moved(h.pose, move), controller) for move in reachable
                     for h in hyps for sizes in _outcomes(h, OUTCOMES)])  # fmt: skip
     gains = {}

@@ -28,6 +28,7 @@ FAST: dict[str, tuple[str, ...]] = {
     "bench_fit_batch": ("--grasps", "64", "--repeat", "1"),
     "bench_revolution": ("--grasps", "100"),
     "bench_decision": ("--repeat", "1"),
+    "bench_mujoco_cache": ("3",),
 }
 """Benchmarks that need no dataset and finish in well under a minute on two cores, with the
 arguments ``python -m benchmarks`` runs them with."""
@@ -46,6 +47,11 @@ NEEDS: dict[str, str] = {
     "(`tactile-bullet benchmark --protocol active --out DIR`); seconds",
     "active_switch": "no dataset; explores the active protocol's objects twice, with a "
     "declared planner rule off and on (about 10 minutes at full scale with both other hands)",
+    "active_unknown": "no dataset; explores the active protocol's objects once with the "
+    "seed 7 unknown rule, the old rule scored on the same grasps (about 6 minutes at full scale "
+    "with both other hands)",
+    "unknown_rescue": "a full-scale robustness matrix's cache (--cache DIR/data, --replicate "
+    "K); seconds",
     "bench_cross_check": "labelled datasets (`tactile-bullet generate --preset modified` or "
     "thesis, a robustness matrix's sets); seconds to a minute each",
     "own_hand_cross_check": "labelled datasets (--data, repeatable; a robustness matrix's "

@@ -79,10 +79,11 @@ def fused_answer(model, answers: Sequence[Mapping[str, Any]],
     """The answer after every grasp so far: ``shape`` (the posterior's best), ``posterior``
     ({shape: p}), ``ambiguous`` ([best, runner-up] while the best is under ``SURE``, else
     None) and ``unknown`` (at least half the grasps answered unknown). With ``likelihoods``
-    (the later grasps read by simulation, :func:`simulated_likelihoods`) the posterior is the
-    first grasp's answer times them, in place of the later grasps' own answers. With the
-    grasps' ``records`` (one per answer) and :data:`UNKNOWN_AGAINST_FUSED`, each grasp counts
-    as unknown as :func:`unknown_against` judges it against the fused family."""
+    (the later grasps read by simulation, :func:`.exploration.simulated_likelihoods`) the
+    posterior is the first grasp's answer times them, in place of the later grasps' own
+    answers. With the grasps' ``records`` (one per answer) and :data:`UNKNOWN_AGAINST_FUSED`,
+    each grasp counts as unknown as :func:`unknown_against` judges it against the fused
+    family."""
     classes = [str(c) for c in model.classes]
     if likelihoods is None:
         post = fuse([probabilities(model, a) for a in answers])

@@ -113,8 +113,8 @@ def run(args: argparse.Namespace) -> int:
         made += f", {answer['grasps'] - answer['distinct_grasps']} of them a repeat counted once"
     line = f"identified after {made}: {answer['shape']} (posterior {p:.2f})"
     if answer["unknown"]:
-        line = (f"identified after {made}: UNKNOWN - at least half the grasps were "
-                f"answered unknown (no family explains them); best guess {answer['shape']}")
+        line = (f"identified after {made}: UNKNOWN - no family explains at least half the "
+                f"grasps (each judged against {answer['shape']}, the best guess)")
     elif answer["ambiguous"]:
         line += f" - AMBIGUOUS: {answer['ambiguous'][0]} or {answer['ambiguous'][1]}"
     print(line)

@@ -92,7 +92,6 @@ so grasping a pose again cannot make the answer surer (docs/exploration.md, decl
 seed 5); a real hand's grasps at one pose differ by their noise and are all fused."""
 
 
-
 @dataclass(frozen=True)
 class Grasp:
     """One grasp of the object: its record and the pose it was made at."""

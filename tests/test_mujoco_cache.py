@@ -150,3 +150,15 @@ def test_reading_an_entry_marks_it_used(cache):
     M.clear_compiled()
     simulate_grasp(*SPHERE, Pose(), CTL)
     assert entry.stat().st_mtime > 1000.0
+
+
+def test_a_process_checks_the_budget_on_its_first_write(cache, monkeypatch):
+    """A one-grasp command writes one entry per run: the folder is checked on a process's
+    first write, not only every PRUNE_EVERY writes, so such runs cannot grow it past the
+    budget."""
+    checked = []
+    monkeypatch.setattr(C, "_WRITTEN", 0)
+    monkeypatch.setattr(C, "prune", lambda folder, budget=None: checked.append(folder) or 0)
+    simulate_grasp(*SPHERE, Pose(), CTL)
+    simulate_grasp("sphere", {"radius": 0.05}, Pose(), CTL)
+    assert checked == [cache]

@@ -52,7 +52,8 @@ BUDGET = 256 << 20
 """Bytes of entries kept: past it, the least recently used are deleted down to 3/4 of it (a
 randomised sweep's sizes never recur, and a torus's entry is ~0.7 MB)."""
 PRUNE_EVERY = 32
-"""Entries a process writes between two checks of the folder's size."""
+"""Entries a process writes between two checks of the folder's size (its first write is
+checked too)."""
 
 _LIMIT = 64 << 20
 """Largest entry read (a torus's model is ~0.7 MB)."""
@@ -153,7 +154,7 @@ def _write(path: Path, key: str, model) -> None:
         return
     global _WRITTEN
     _WRITTEN += 1
-    if _WRITTEN % PRUNE_EVERY == 0:
+    if _WRITTEN % PRUNE_EVERY == 1:  # a process's first write too: one-grasp commands add up
         prune(path.parent)
 
 

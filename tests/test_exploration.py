@@ -87,10 +87,11 @@ def test_a_grasps_contacts_are_judged_against_the_fused_family(monkeypatch):
     second = _answer([0.95, 0.05, 0.0]) | {"shape": "a"}
     records = [object(), object()]
     monkeypatch.setattr(F, "UNKNOWN_AGAINST_FUSED", False)
-    assert E.fused_answer(model, [first, second], records=records)["unknown"] is True
+    old = E.fused_answer(model, [first, second], records=records)
+    assert old["unknown"] is True and old["unknown_grasps"] == 1
     monkeypatch.setattr(F, "UNKNOWN_AGAINST_FUSED", True)
     fused = E.fused_answer(model, [first, second], records=records)
-    assert fused["shape"] == "a" and fused["unknown"] is False
+    assert fused["shape"] == "a" and fused["unknown"] is False and fused["unknown_grasps"] == 0
     assert model.axis.asked == ["a"]  # only the grasp that named another family is judged
     assert E.fused_answer(model, [first, second])["unknown"] is True  # no records: own flags
     novel = first | {"unknown_why": UNLIKE_TRAINING}

@@ -95,7 +95,7 @@ def run(args: argparse.Namespace) -> int:
         "shape": fused["shape"], **_identifier(args.model, model),
         "probabilities": fused["posterior"], "ambiguous": fused["ambiguous"],
         "unknown": fused["unknown"], "grasps": fused["grasps"],
-        "distinct_grasps": fused["distinct_grasps"],
+        "distinct_grasps": fused["distinct_grasps"], "unknown_grasps": fused["unknown_grasps"],
     }  # fmt: skip
     doc["object"] = {"shape": getattr(target, "name", str(target)), "params": params}
     if "plot" in outputs:
@@ -113,8 +113,9 @@ def run(args: argparse.Namespace) -> int:
         made += f", {answer['grasps'] - answer['distinct_grasps']} of them a repeat counted once"
     line = f"identified after {made}: {answer['shape']} (posterior {p:.2f})"
     if answer["unknown"]:
-        line = (f"identified after {made}: UNKNOWN - no family explains at least half the "
-                f"grasps (each judged against {answer['shape']}, the best guess)")
+        line = (f"identified after {made}: UNKNOWN - no family explains "
+                f"{answer['unknown_grasps']} of the {answer['distinct_grasps']} grasps fused "
+                f"(each judged against {answer['shape']}, the best guess)")
     elif answer["ambiguous"]:
         line += f" - AMBIGUOUS: {answer['ambiguous'][0]} or {answer['ambiguous'][1]}"
     print(line)

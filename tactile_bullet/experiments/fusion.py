@@ -78,12 +78,12 @@ def fused_answer(model, answers: Sequence[Mapping[str, Any]],
                  records: Sequence[GraspRecord] | None = None) -> dict[str, Any]:  # fmt: skip
     """The answer after every grasp so far: ``shape`` (the posterior's best), ``posterior``
     ({shape: p}), ``ambiguous`` ([best, runner-up] while the best is under ``SURE``, else
-    None) and ``unknown`` (at least half the grasps answered unknown). With ``likelihoods``
-    (the later grasps read by simulation, :func:`.exploration.simulated_likelihoods`) the
-    posterior is the first grasp's answer times them, in place of the later grasps' own
-    answers. With the grasps' ``records`` (one per answer) and :data:`UNKNOWN_AGAINST_FUSED`,
-    each grasp counts as unknown as :func:`unknown_against` judges it against the fused
-    family."""
+    None), ``unknown`` (at least half the grasps are unknown) and ``unknown_grasps`` (how many
+    are). With ``likelihoods`` (the later grasps read by simulation,
+    :func:`.exploration.simulated_likelihoods`) the posterior is the first grasp's answer
+    times them, in place of the later grasps' own answers. With the grasps' ``records`` (one
+    per answer) and :data:`UNKNOWN_AGAINST_FUSED`, each grasp counts as unknown as
+    :func:`unknown_against` judges it against the fused family."""
     classes = [str(c) for c in model.classes]
     if likelihoods is None:
         post = fuse([probabilities(model, a) for a in answers])
@@ -104,6 +104,7 @@ def fused_answer(model, answers: Sequence[Mapping[str, Any]],
         "posterior": {c: float(p) for c, p in zip(classes, post, strict=True)},
         "ambiguous": ambiguous,
         "unknown": bool(unknown),
+        "unknown_grasps": int(sum(flags)),
         "grasps": len(answers),
     }
 

@@ -147,7 +147,7 @@ def test_a_family_decided_on_the_grid_is_not_kept_as_a_whole_fit(fresh_cache):
         found = shape_fit.name_or_fit(a, FAMILIES)
         if isinstance(found, str):
             assert fit_cache.cached_fit(a, FAMILIES, cal) is None
-            assert fit_cache.cached_name(a, FAMILIES, cal) == found
+            assert fit_cache.cached_answer(a, FAMILIES, cal) == found
             whole = shape_fit.fit_shape(a, FAMILIES)
             assert whole.shape == found and whole.params  # the sizes, computed now
             assert shape_fit.name_or_fit(a, FAMILIES) is whole  # and read back after

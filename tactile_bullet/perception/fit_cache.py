@@ -31,11 +31,14 @@ def cached_fit(
 ) -> ShapeFit | None:
     """The whole fit kept for final angles (3, 4) (or, ``features``, their measured features),
     ``families`` and ``cal``; None where there is none."""
-    key = _key(angles, families, cal, features)
-    hit = _FITS.get(key)
+    return _lookup(_FITS, _key(angles, families, cal, features), cal)
+
+
+def _lookup(table: OrderedDict, key: tuple, cal: Calibration):
+    hit = table.get(key)
     if hit is None or hit[0] is not cal:
         return None
-    _FITS.move_to_end(key)
+    table.move_to_end(key)
     return hit[1]
 
 
@@ -54,21 +57,10 @@ def cached_answer(
     angles, families: Sequence[str], cal: Calibration, features: bool = False
 ) -> ShapeFit | str | None:
     """What this process knows of the shape fit of these angles: the whole fit where one is
-    kept, else the family name the grid decided, else None (one lookup of each)."""
-    fit = cached_fit(angles, families, cal, features)
-    if fit is not None:
-        return fit
-    hit = _NAMES.get(_key(angles, families, cal, features))
-    return hit[1] if hit is not None and hit[0] is cal else None
-
-
-def cached_name(
-    angles, families: Sequence[str], cal: Calibration, features: bool = False
-) -> str | None:
-    """The family the shape fit names, where this process knows it already (a whole fit kept,
-    or a name decided on the grid); None where it does not."""
-    found = cached_answer(angles, families, cal, features)
-    return found.shape if isinstance(found, ShapeFit) else found
+    kept, else the family name the grid decided, else None (the key computed once)."""
+    key = _key(angles, families, cal, features)
+    found = _lookup(_FITS, key, cal)
+    return found if found is not None else _lookup(_NAMES, key, cal)
 
 
 def keep_name(

@@ -11,7 +11,8 @@ from __future__ import annotations
 import shlex
 import subprocess
 import sys
-from collections.abc import Sequence
+import time
+from collections.abc import Callable, Sequence
 from datetime import UTC, datetime
 from pathlib import Path
 
@@ -67,3 +68,14 @@ def save_figure(fig, out: str | Path) -> None:
     fig.tight_layout()
     fig.savefig(out, dpi=110)
     print(f"wrote {out}")
+
+
+def timings(fn: Callable[[], object], repeat: int) -> list[float]:
+    """Seconds each of ``repeat`` calls of ``fn`` took, in order (the benchmarks take the best
+    or the median of them)."""
+    out = []
+    for _ in range(repeat):
+        start = time.perf_counter()
+        fn()
+        out.append(time.perf_counter() - start)
+    return out

@@ -26,11 +26,10 @@ import argparse
 import os
 import sys
 import tempfile
-import time
 from pathlib import Path
 
 import numpy as np
-from _report import provenance  # first: this checkout ahead of an installed copy
+from _report import provenance, timings  # first: this checkout ahead of an installed copy
 
 from tactile_bullet.objects import meshes
 from tactile_bullet.plugins import shape_names
@@ -57,12 +56,7 @@ def write_mesh(folder: Path, name: str, triangles: int) -> Path:
 
 
 def best(fn, repeat: int) -> float:
-    times = []
-    for _ in range(repeat):
-        start = time.perf_counter()
-        fn()
-        times.append(time.perf_counter() - start)
-    return min(times)
+    return min(timings(fn, repeat))
 
 
 def main(argv=None) -> int:

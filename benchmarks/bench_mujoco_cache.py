@@ -12,9 +12,8 @@ import os
 import statistics
 import sys
 import tempfile
-import time
 
-from _report import provenance  # first: this checkout ahead of an installed copy
+from _report import provenance, timings  # first: this checkout ahead of an installed copy
 
 from tactile_bullet.objects.shapes import BUILTIN_SHAPES, THESIS_SHAPES
 from tactile_bullet.records import ControllerSettings
@@ -24,12 +23,7 @@ from tactile_bullet.sim.engines.mujoco_objects import object_geoms
 
 
 def _median_ms(fn, repeats: int) -> float:
-    times = []
-    for _ in range(repeats):
-        start = time.perf_counter()
-        fn()
-        times.append(time.perf_counter() - start)
-    return 1e3 * statistics.median(times)
+    return 1e3 * statistics.median(timings(fn, repeats))
 
 
 def main(argv: list[str]) -> int:

@@ -85,14 +85,19 @@ def _answers(made: dict) -> list[dict]:
              "pose": g["pose"]} for g in made["grasps"]]  # fmt: skip
 
 
+def fused_after_each(made: dict, rule: Callable) -> list[dict]:
+    """One object's grasps (a row's ``made`` entry) fused by ``rule`` after 1, 2, ... of them."""
+    answers = _answers(made)
+    model = SimpleNamespace(classes=list(answers[0]["probabilities"] or {}))
+    return [rule(model, answers[: k + 1]) for k in range(len(answers))]
+
+
 def score(row: dict, rule: Callable) -> tuple[list[float], float, list[list[bool]]]:
     """(share right after each count, share right with the stopping rule, per object right
     after each count) of one row's grasps fused by ``rule``."""
     after, stopped, right = [], [], []
     for made in row["made"]:
-        answers = _answers(made)
-        model = SimpleNamespace(classes=list(answers[0]["probabilities"] or {}))
-        fused = [rule(model, answers[: k + 1]) for k in range(len(answers))]
+        fused = fused_after_each(made, rule)
         right.append([is_right(f, made["truth"]) for f in fused])
         stop = next((k for k, f in enumerate(fused) if settled(f)), len(fused) - 1)
         stopped.append(is_right(fused[stop], made["truth"]))

@@ -23,10 +23,9 @@ import json
 import tempfile
 import time
 from pathlib import Path
-from types import SimpleNamespace
 
 from _report import provenance  # first: this checkout ahead of an installed copy
-from active_fusion import RULES, _answers
+from active_fusion import RULES, fused_after_each
 
 from tactile_bullet.experiments import fusion
 from tactile_bullet.experiments.active import GRASPS, OUT_OF_FAMILY, columns, is_right, score_column
@@ -43,9 +42,7 @@ def old_rule(row: dict) -> dict:
     stops; and each count's fused shape, to check against the run's."""
     unknown, stop_right, stop_unknown, shapes = [], [], [], []
     for made in row["made"]:
-        answers = _answers(made)
-        model = SimpleNamespace(classes=list(answers[0]["probabilities"] or {}))
-        fused = [RULES["distinct"](model, answers[: k + 1]) for k in range(len(answers))]
+        fused = fused_after_each(made, RULES["distinct"])
         unknown.append([bool(f["unknown"]) for f in fused])
         shapes.append([f["shape"] for f in fused])
         stop = next((k for k, f in enumerate(fused) if settled(f)), len(fused) - 1)

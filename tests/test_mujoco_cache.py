@@ -116,7 +116,7 @@ def test_an_unwritable_cache_costs_only_speed(tmp_path, monkeypatch):
     M.clear_compiled()
 
 
-def test_the_key_follows_the_code_and_the_hand():
+def test_the_key_follows_the_code_the_step_and_the_phalanx_scale():
     assert len(C.code_key()) == 64
     assert "sim/engines/mujoco_objects.py" in C._SOURCES
     geoms = _sphere_geoms()

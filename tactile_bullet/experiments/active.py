@@ -233,10 +233,10 @@ def score_column(objects: Sequence[tuple], controller: ControllerSettings, model
                       until_settled=False, fusion=fusion or "model")  # fmt: skip
         seconds += [d["seconds"] for d in doc["decisions"]]
         fused = doc["fused"]
-        for k in range(GRASPS):
-            after[i, k] = is_right(fused[min(k, len(fused) - 1)], truth)
-            unknown[i, k] = bool(fused[min(k, len(fused) - 1)]["unknown"])
-        shapes.append([str(fused[min(k, len(fused) - 1)]["shape"]) for k in range(GRASPS)])
+        counts = [fused[min(k, len(fused) - 1)] for k in range(GRASPS)]  # the last repeated
+        after[i] = [is_right(f, truth) for f in counts]
+        unknown[i] = [bool(f["unknown"]) for f in counts]
+        shapes.append([str(f["shape"]) for f in counts])
         stop = next((k for k, f in enumerate(fused) if settled(f)), len(fused) - 1)
         stop_right.append(is_right(fused[stop], truth))
         stop_unknown.append(bool(fused[stop]["unknown"]))

@@ -1,13 +1,12 @@
 """The MuJoCo engine's compiled models (the project's hand + one object), kept on disk between
 processes.
 
-Compiling the hand with an object costs 2-2.5 ms for a sphere, a cylinder or a cone, 8 ms for
-a hyperboloid's slabs and ~15 ms for a torus's 24 convex pieces, against 0.3-0.9 ms to read the
-compiled model back (MuJoCo's binary MJB format; ``benchmarks/bench_mujoco_cache.py``); a
-process keeps its last few models in memory already (``mujoco._PROTOTYPES``), so
-this saves the first grasp of each size in every later process: a ``generate`` run again, a
-resumed one, the tour, the tests. Models of a hand given with ``--hand-model`` are not kept
-(its file may read other files, which no key here covers).
+Reading a compiled model back (MuJoCo's binary MJB format) is several times faster than
+compiling the hand with an object, most of all a torus's 24 convex pieces (docs/performance.md,
+"MuJoCo's compiled models across runs"); a process keeps its last few models in memory already
+(``mujoco._PROTOTYPES``), so this saves the first grasp of each size in every later process:
+a ``generate`` run again, a resumed one, the tour, the tests. Models of a hand given with
+``--hand-model`` are not kept (its file may read other files, which no key here covers).
 
 An entry is used only when it passes every check, as the shape fit's grid cache
 (``perception/grid_cache.py``): its key (the package version, this file's :data:`FORMAT`,

@@ -80,10 +80,9 @@ on to reproduce that."""
 TURN_SECOND = False
 """Make the second grasp a turn of the hand about the palm normal (the reachable rotation
 moves of :data:`MOVES`, the sign by expected gain; every move where no turn is reachable);
-later grasps are planned over every move. Off: designed on seeds 4, 5 and 7 (a random turn
-as the second grasp righted 20 of 175 objects, a random shift 8 of 353, the planner's own
-turns -4 of 130), declared before seed 8 and reverted on it: 9 fewer in-family objects right
-after two grasps (docs/exploration.md). ``benchmarks/active_switch.py`` turns it on."""
+later grasps are planned over every move. Off: designed on seeds 4, 5 and 7, where random
+turns had helped most, declared before seed 8 and reverted on it (docs/exploration.md, its
+figures in docs/performance.md). ``benchmarks/active_switch.py`` turns it on."""
 
 FUSE_REPEATS = False
 """Fuse a grasp that repeats an earlier one (the same pose and final joint angles: in

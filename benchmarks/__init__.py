@@ -45,6 +45,9 @@ NEEDS: dict[str, str] = {
     "border and unseen-poses at full scale)",
     "active_fusion": "an `active` run's --out folder written since its rows keep each grasp "
     "(`tactile-bullet benchmark --protocol active --out DIR`); seconds",
+    "active_pooled": "two or more `active` runs' --out folders, one seed each, written "
+    "since rows keep each object's answers (`tactile-bullet benchmark --protocol active "
+    "--seed K --out DIR`); seconds",
     "active_switch": "no dataset; explores the active protocol's objects twice, with a "
     "declared planner rule off and on (about 10 minutes at full scale with both other hands)",
     "active_unknown": "no dataset; explores the active protocol's objects once with the "

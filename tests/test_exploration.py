@@ -517,3 +517,29 @@ def _record_with_final(final):
 
     rec = make_records(per_shape=1, seed=0)[0]
     return dataclasses.replace(rec, final_angles=np.asarray(final, dtype=float))
+
+
+def test_pooled_active_runs_compare_planned_and_random_object_by_object():
+    """benchmarks/active_pooled.py: counts summed over seeds, and the discordant pairs (one
+    strategy right, the other wrong) that its sign test reads."""
+    import sys
+    from pathlib import Path
+
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
+    from active_pooled import pooled, sign_test
+
+    def run(planned, random):
+        return {"rows": [{"column": "border", "strategy": "planned", "right": planned},
+                         {"column": "border", "strategy": "random", "right": random}]}  # fmt: skip
+
+    t, f = True, False
+    docs = [run([[f, t, t], [t, t, t]], [[f, f, t], [t, f, f]]), run([[f, t, f]], [[f, t, t]])]
+    counts, pairs = pooled(docs)
+    assert counts[("border", "planned")] == [3, 1, 3, 2]
+    assert counts[("border", "random")] == [3, 1, 1, 2]
+    after_two = [(p[1], r[1]) for p, r in pairs["border"]]
+    assert after_two == [(t, f), (t, f), (t, t)]
+    assert sign_test(0, 0) == 1.0
+    assert sign_test(2, 0) == pytest.approx(0.5)  # 2 of 2 one way: 2 * (1/4)
+    assert sign_test(15, 5) == pytest.approx(0.0414, abs=1e-4)
+    assert sign_test(5, 15) == sign_test(15, 5)

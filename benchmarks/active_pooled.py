@@ -80,7 +80,7 @@ def main(argv=None) -> int:
         gain = 100.0 * (only_planned - only_random) / len(both)
         print(f"{column:14s} {gain:+6.1f} points over {len(both)} objects; planned only "
               f"{only_planned}, random only {only_random}; sign test p = "
-              f"{sign_test(only_planned, only_random):.2f}")  # fmt: skip
+              f"{sign_test(only_planned, only_random):.3f}")  # fmt: skip
     return 0
 
 

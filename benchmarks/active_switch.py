@@ -1,11 +1,13 @@
 """The planner with one of its declared switches off and on (``--switch``:
 ``AVOID_VISITED``, no pose grasped twice; ``OWN_HAND_HYPOTHESES``, the hypotheses fitted with
-the hand's own coefficients; ``TURN_SECOND``, the second grasp a turn) on the ``active``
+the hand's own coefficients; ``TURN_SECOND``, the second grasp a turn; ``GAIN_BY_READINGS``,
+moves scored by what their readings tell the hypotheses apart by) on the ``active``
 protocol's objects: the ``planned`` strategy on every column asked for, the same objects and
 seeds, each explored to three grasps; per column, the objects right after 1, 2 and 3 grasps and
 with the stopping rule, and the declared rule's verdict (docs/exploration.md, "Declared before
-seed 2", "... seed 3" and "... seed 8"). ``--random`` also runs the random strategy once, for
-issue 28's comparison after two grasps.
+seed 2", "... seed 3", "... seed 8" and "... seed 9"). ``--random`` also runs the random
+strategy once, for issue 28's comparison after two grasps (in family, summed, and object by
+object with ``active_pooled``'s sign test).
 
     python benchmarks/active_switch.py --switch AVOID_VISITED [--scale full] [--seed 2] \
         [--other-hand menagerie=M.xml --other-hand gymnasium=G.xml] [--columns ...] \
@@ -21,15 +23,16 @@ import time
 from pathlib import Path
 
 from _report import provenance  # first: this checkout ahead of an installed copy
+from active_pooled import sign_test
 
 from tactile_bullet.experiments import exploration
 from tactile_bullet.experiments.active import GRASPS, OUT_OF_FAMILY, columns, score_column
 from tactile_bullet.learn import doubt
 from tactile_bullet.learn.default import default_model
 
-SWITCHES = ("AVOID_VISITED", "OWN_HAND_HYPOTHESES", "TURN_SECOND")
+SWITCHES = ("AVOID_VISITED", "OWN_HAND_HYPOTHESES", "TURN_SECOND", "GAIN_BY_READINGS")
 HOLDABLE = {"AVOID_VISITED": exploration, "OWN_HAND_HYPOTHESES": exploration,
-            "TURN_SECOND": exploration,
+            "TURN_SECOND": exploration, "GAIN_BY_READINGS": exploration,
             "OWN_HAND_COEFFICIENTS": doubt}  # fmt: skip
 """Switches ``--hold-off`` keeps off in both arms (a rule that came after the run to
 reproduce: the seed 2 judgement predates both own-hand rules)."""
@@ -53,7 +56,8 @@ def verdict(rows: dict[str, dict[str, dict]]) -> tuple[bool, list[str]]:
 
 
 def verdict_turn(rows: dict[str, dict[str, dict]]) -> tuple[bool, list[str]]:
-    """The rule declared before seed 8 (``TURN_SECOND``): in-family columns (a) at least one
+    """The rule declared before seed 8 (``TURN_SECOND``) and again before seed 9
+    (``GAIN_BY_READINGS``): in-family columns (a) at least one
     more object right after 2 grasps, (b) no column losing more than one after 2 or 3, (c)
     with the stopping rule not fewer; out of family (d) at most 4 fewer unknown after 2."""
     def count(row, k):
@@ -74,7 +78,7 @@ def verdict_turn(rows: dict[str, dict[str, dict]]) -> tuple[bool, list[str]]:
     return gain2 >= 1 and worst >= -1 and stop >= 0 and lost <= 4, checks
 
 
-VERDICTS = {"TURN_SECOND": verdict_turn}
+VERDICTS = {"TURN_SECOND": verdict_turn, "GAIN_BY_READINGS": verdict_turn}
 """Each switch's declared rule, where it is not :func:`verdict`'s."""
 
 
@@ -123,6 +127,11 @@ def main(argv=None) -> int:
             right = sum(sum(r[1] for r in rows[c][label]["right"]) for c in inside)
             total = sum(rows[c][label]["objects"] for c in inside)
             print(f"in-family objects right after 2 grasps, {label}: {right} of {total}")
+        pairs = [(a[1], b[1]) for c in inside
+                 for a, b in zip(rows[c]["with"]["right"], rows[c]["random"]["right"], strict=True)]
+        mine, theirs = sum(a and not b for a, b in pairs), sum(b and not a for a, b in pairs)
+        print(f"object by object after 2 grasps, in family: switch on only {mine}, random only "
+              f"{theirs} (sign test p = {sign_test(mine, theirs):.3f})")  # fmt: skip
     print("\n".join(checks))
     print("declared rule:", "kept" if kept else "reverted")
     if args.json:

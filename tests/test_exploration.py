@@ -543,3 +543,56 @@ def test_pooled_active_runs_compare_planned_and_random_object_by_object():
     assert sign_test(2, 0) == pytest.approx(0.5)  # 2 of 2 one way: 2 * (1/4)
     assert sign_test(15, 5) == pytest.approx(0.0414, abs=1e-4)
     assert sign_test(5, 15) == sign_test(15, 5)
+
+
+def test_a_move_where_every_hypothesis_reads_alike_gains_nothing_by_readings():
+    """``reading_gain`` is the mutual information between the hypothesis and the reading:
+    zero where the hypotheses would read as the same shape however surely (the fused-entropy
+    gain counts that move as informative), the hypotheses' own entropy where each reads as
+    itself, and a hypothesis with no simulated outcome reads as a uniform answer."""
+    classes = ["cone", "cylinder", "hyperboloid"]
+    sure = {"cylinder": [0.0, 1.0, 0.0], "hyperboloid": [0.0, 0.0, 1.0]}
+
+    class Model:
+        def __init__(self, readings):
+            self.classes, self.readings = classes, readings
+
+        def predict_with_proba(self, records):
+            rows = np.array([self.readings[r] for r in records], float)
+            return np.array([classes[i] for i in rows.argmax(axis=1)]), rows
+
+    class Cache:
+        def grasp(self, shape, sizes, pose, controller):
+            return None if shape == "cone" else shape
+
+    hyps = [E.Hypothesis("cylinder", {}, Pose(), 0.6), E.Hypothesis("hyperboloid", {}, Pose(), 0.4)]
+    args = (np.full(3, 1 / 3), hyps, (0.0, 0.0, 0.0), Pose(), None, Cache())
+    alike = Model({"cylinder": sure["cylinder"], "hyperboloid": sure["cylinder"]})
+    apart = Model(sure)
+    assert E.reading_gain(alike, *args) == pytest.approx(0.0, abs=1e-12)
+    assert E.expected_gain(alike, *args) > 0.5  # the fused-entropy gain rewards a sure misreading
+    w = np.array([0.6, 0.4])
+    own = E.smoothed(np.eye(3)[[1, 2]])
+    expected = E._entropy(w @ own) - sum(wi * E._entropy(r) for wi, r in zip(w, own, strict=True))
+    assert E.reading_gain(apart, *args) == pytest.approx(expected)
+    assert E.reading_gain(apart, *args) > 0.8  # nearly the hypotheses' entropy, 0.97 bits
+    blind = [E.Hypothesis("cone", {}, Pose(), 0.5), E.Hypothesis("cylinder", {}, Pose(), 0.5)]
+    gain = E.reading_gain(apart, np.full(3, 1 / 3), blind, (0.0, 0.0, 0.0), Pose(), None, Cache())
+    assert 0 < gain < E.reading_gain(apart, *args)
+
+
+@pytest.mark.slow
+def test_scored_by_readings_the_planner_never_regrasps_the_first_pose(monkeypatch):
+    """With ``GAIN_BY_READINGS`` (off by default; declared before seed 9) the first pose, whose
+    reading is known, is not a candidate, and the move chosen carries the largest reading
+    gain."""
+    from tactile_bullet.learn.default import default_model
+    from tactile_bullet.sim.grasp import simulate_grasp
+
+    monkeypatch.setattr(E, "GAIN_BY_READINGS", True)
+    ctl, first = ControllerSettings(engine="mujoco"), Pose((0.008, 0.0, 0.0))
+    record = simulate_grasp("hyperboloid", {"waist_radius": 0.035}, first, ctl)
+    decision = E.plan([E.Grasp(record, first)], default_model(), ctl)
+    assert (0.0, 0.0, 0.0) not in decision["gains"]
+    assert set(decision["gains"]) == set(E.reachable_moves(first)) - {(0.0, 0.0, 0.0)}
+    assert decision["gains"][decision["move"]] == max(decision["gains"].values()) > 0

@@ -84,6 +84,14 @@ later grasps are planned over every move. Off: designed on seeds 4, 5 and 7, whe
 turns had helped most, declared before seed 8 and reverted on it (docs/exploration.md, its
 figures in docs/performance.md). ``benchmarks/active_switch.py`` turns it on."""
 
+GAIN_BY_READINGS = False
+"""Score a move by the information its reading carries about which hypothesis is true (the
+mutual information between the hypothesis and the model's reading there, :func:`reading_gain`)
+instead of by the fused posterior's expected entropy (:func:`expected_gain`), which also
+rewards a move where every hypothesis would read as the same shape; a move to a pose already
+grasped tells nothing new and is left out (where another is reachable). Declared before seed 9
+(docs/exploration.md); ``benchmarks/active_switch.py`` turns it on."""
+
 FUSE_REPEATS = False
 """Fuse a grasp that repeats an earlier one (the same pose and final joint angles: in
 simulation, the same grasp made again) as new evidence. Off: each distinct grasp counts once,
@@ -352,6 +360,31 @@ def expected_gain(model, prior: np.ndarray, hyps: Sequence[Hypothesis], move, fi
     return _entropy(prior) - expected
 
 
+def reading_gain(model, prior: np.ndarray, hyps: Sequence[Hypothesis], move, first: Pose,
+                 controller: ControllerSettings, cache: SimulationCache,
+                 outcomes: int = OUTCOMES) -> float:  # fmt: skip
+    """Mutual information (bits) between which hypothesis is true (weighted by its posterior)
+    and what the model reads at each hypothesis's pose moved by ``move``: the entropy of the
+    readings' mixture less each hypothesis's own reading entropy. Each reading is the model's
+    probabilities smoothed as fusing smooths them (:data:`SMOOTHING`), averaged over the
+    hypothesis's simulated outcomes; a hypothesis without one reads as a uniform answer. Zero
+    where every hypothesis reads alike, however surely (``prior`` and ``first`` are
+    :func:`expected_gain`'s, unused here)."""
+    weights = np.array([h.weight for h in hyps], float)
+    weights = weights / weights.sum()
+    n = len(model.classes)
+    readings = []
+    for h in hyps:
+        pose = moved(h.pose, move)
+        found = [r for sizes in _outcomes(h, outcomes)
+                 if (r := cache.grasp(h.shape, sizes, pose, controller)) is not None]
+        proba = model.predict_with_proba(found)[1] if found else None
+        readings.append(smoothed(proba).mean(axis=0) if proba is not None else np.full(n, 1 / n))
+    mixture = weights @ np.array(readings)
+    return _entropy(mixture) - float(sum(w * _entropy(r) for w, r in zip(weights, readings,
+                                                                          strict=True)))
+
+
 def next_pose(
     grasps: Sequence[Grasp],
     model=None,
@@ -391,15 +424,16 @@ def plan(grasps: Sequence[Grasp], model, controller: ControllerSettings,
     first = grasps[0].pose
     before = cache.simulated
     reachable = reachable_moves(first, moves)
-    if AVOID_VISITED:
+    if AVOID_VISITED or GAIN_BY_READINGS:
         reachable = unvisited(reachable, first, [g.pose for g in grasps])
     if TURN_SECOND and len(keep) == 1:
         reachable = [m for m in reachable if m[2] != 0] or reachable
     cache.prefetch([(h.shape, sizes, moved(h.pose, move), controller) for move in reachable
                     for h in hyps for sizes in _outcomes(h, OUTCOMES)])  # fmt: skip
+    gain = reading_gain if GAIN_BY_READINGS else expected_gain
     gains = {}
     for move in reachable:
-        gains[tuple(move)] = (expected_gain(model, prior, hyps, move, first, controller, cache)
+        gains[tuple(move)] = (gain(model, prior, hyps, move, first, controller, cache)
                               if hyps else 0.0)  # fmt: skip
     if not gains:
         raise UsageError("no move keeps the grasp in the reachable set")

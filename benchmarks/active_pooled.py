@@ -9,8 +9,10 @@ of those discordant pairs (exact binomial, half each under no difference).
 
     python benchmarks/active_pooled.py OUT1 OUT2 ... [--grasps 2]
 
-Runs written before rows kept each object's answers (``right``) are refused; runs of the same
-seed are refused (they are the same objects).
+An OUT may also be the ``--json`` file of ``benchmarks/active_switch.py ... --random``: its
+switch-off arm is the planned strategy as it stood, its random arm the random one. Runs written
+before rows kept each object's answers (``right``) are refused; runs of the same seed are
+refused (they are the same objects).
 """
 
 from __future__ import annotations
@@ -54,13 +56,26 @@ def pooled(docs: list[dict]) -> tuple[dict, dict]:
     return counts, pairs
 
 
+def read_run(path: Path) -> dict:
+    """An ``active`` run's ``active.json`` (``path`` its folder), or an ``active_switch.py
+    --random --json`` file as such a run: its switch-off arm planned, its random arm random."""
+    if path.is_dir():
+        return json.loads((path / "active.json").read_text())
+    doc = json.loads(path.read_text())
+    rows = [{"column": column, "strategy": strategy, **arms[arm]}
+            for column, arms in doc["rows"].items()
+            for strategy, arm in (("planned", "without"), ("random", "random")) if arm in arms]
+    return {"config": {"seed": doc["seed"]}, "rows": rows}
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("runs", nargs="+", help="active runs' --out folders, one seed each")
+    ap.add_argument("runs", nargs="+", help="active runs' --out folders (or active_switch "
+                    "--json files), one seed each")
     ap.add_argument("--grasps", type=int, default=2, help="the grasp count compared (1-3)")
     args = ap.parse_args(argv)
     provenance(argv)
-    docs = [json.loads((Path(p) / "active.json").read_text()) for p in args.runs]
+    docs = [read_run(Path(p)) for p in args.runs]
     seeds = [d["config"].get("seed") for d in docs]
     if len(set(seeds)) != len(seeds):
         ap.error(f"the runs repeat a seed: {seeds}")

@@ -89,8 +89,9 @@ GAIN_BY_READINGS = False
 mutual information between the hypothesis and the model's reading there, :func:`reading_gain`)
 instead of by the fused posterior's expected entropy (:func:`expected_gain`), which also
 rewards a move where every hypothesis would read as the same shape; a move to a pose already
-grasped tells nothing new and is left out (where another is reachable). Declared before seed 9
-(docs/exploration.md); ``benchmarks/active_switch.py`` turns it on."""
+grasped tells nothing new and is left out (where another is reachable). Off: declared before
+seed 9 and reverted on it (docs/exploration.md, its figures in docs/performance.md);
+``benchmarks/active_switch.py`` turns it on."""
 
 FUSE_REPEATS = False
 """Fuse a grasp that repeats an earlier one (the same pose and final joint angles: in

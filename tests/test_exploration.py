@@ -539,6 +539,21 @@ def test_pooled_active_runs_compare_planned_and_random_object_by_object():
     assert counts[("border", "random")] == [3, 1, 1, 2]
     after_two = [(p[1], r[1]) for p, r in pairs["border"]]
     assert after_two == [(t, f), (t, f), (t, t)]
+    switch = {"seed": 9, "rows": {"border": {"without": {"right": [[f, t, t]]},
+                                             "with": {"right": [[t, t, t]]},
+                                             "random": {"right": [[f, f, t]]}}}}  # fmt: skip
+    import json as _json
+    import tempfile
+
+    with tempfile.TemporaryDirectory() as tmp:
+        path = Path(tmp) / "seed9.json"
+        path.write_text(_json.dumps(switch))
+        from active_pooled import read_run
+
+        run9 = read_run(path)
+    assert run9["config"]["seed"] == 9
+    assert {(r["strategy"], str(r["right"])) for r in run9["rows"]} == {
+        ("planned", str([[f, t, t]])), ("random", str([[f, f, t]]))}  # the switch's off arm
     assert sign_test(0, 0) == 1.0
     assert sign_test(2, 0) == pytest.approx(0.5)  # 2 of 2 one way: 2 * (1/4)
     assert sign_test(15, 5) == pytest.approx(0.0414, abs=1e-4)

@@ -149,6 +149,16 @@ def test_other_hand_is_refused_outside_the_robustness_protocol(tmp_path, capsys)
     assert "--protocol robustness" in err
 
 
+@pytest.mark.parametrize("protocol", ["sim-shift", "robustness", "active"])
+def test_a_cache_that_is_a_file_is_refused_before_any_grasp(tmp_path, capsys, protocol):
+    afile = tmp_path / "afile"
+    afile.write_text("kept")
+    err = run_error(capsys, ["benchmark", "--protocol", protocol, "--scale", "tiny", "--cache",
+                             str(afile), "--out", str(tmp_path / "b")])  # fmt: skip
+    assert f"--cache {afile} exists and is not a folder" in err
+    assert not (tmp_path / "b").exists() and afile.read_text() == "kept"
+
+
 def test_the_readme_cylinder_is_named_cylinder_with_the_shape_fits_dissent(capsys):
     """README's first grasp: a 30 mm cylinder. The default identifier names it; the shape fit,
     which rests on the four J3 angles, finds a turned cone as good and is shown as the doubt

@@ -358,3 +358,16 @@ def test_hand_model_must_be_an_mjcf_file_checked_before_mujoco_reads_it(tmp_path
         os.mkfifo(path)
     err = run_error(capsys, ["grasp", "--shape", "sphere", "--hand-model", str(path)])
     assert "hand model" in err or "MJCF" in err
+
+
+@pytest.mark.parametrize(
+    "argv",
+    [
+        ["grasp", "--shape", "cylinder", "--param", "radius=0.03", "--param", "radius=0.04"],
+        ["explore", "--shape", "cylinder", "--param", "radius=0.03", "--param", " radius=0.04"],
+        ["train", "--data", "D", "--out", "m.npz", "--param", "C=1", "--param", "C=2"],
+    ],
+)
+def test_a_key_given_twice_is_refused_not_the_last_kept(capsys, argv):
+    err = run_error(capsys, argv)
+    assert "is given twice" in err and "give it once" in err

@@ -372,3 +372,16 @@ def test_hand_model_must_be_an_mjcf_file_checked_before_mujoco_reads_it(tmp_path
 def test_a_key_given_twice_is_refused_not_the_last_kept(capsys, argv):
     err = run_error(capsys, argv)
     assert "is given twice" in err and "give it once" in err
+
+
+@pytest.mark.parametrize(
+    "command", [["evaluate", "--data"], ["adapt", "--out", "m.npz", "--known"]]
+)
+def test_a_recording_given_where_records_are_read_is_named_with_how_to_import_it(
+    tmp_path, capsys, command
+):
+    recording = tmp_path / "session.csv"
+    recording.write_text("time,FFJ3\n0.0,0.1\n")
+    err = run_error(capsys, [*command, str(recording)])
+    assert f"{recording} is not a readable grasp record" in err
+    assert f"tactile-bullet import {recording} --out DIR" in err

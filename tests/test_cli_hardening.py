@@ -273,6 +273,7 @@ def test_a_sweep_knows_its_size_without_expanding_it():
     [
         ["grasp", "--shape", "sphere", "--max-time", "1e9"],
         ["grasp", "--shape", "sphere", "--thres", "1e9"],
+        ["grasp", "--shape", "cylinder", "--param", "radius=0.0_4"],
         ["grasp", "--shape", "sphere", "--offset", "1e300,0,0"],
         ["sequential", "--synthetic", "--classes", "1000", "--per-class", "1000000"],
     ],

@@ -16,7 +16,11 @@ from ..errors import UsageError
 
 
 def parse_number(text: str, what: str) -> float:
+    """A finite float; Python's digit separators (``0.0_4``) are refused, as in tables: a
+    typo reads as another number."""
     try:
+        if "_" in text:
+            raise ValueError(text)
         value = float(text)
     except ValueError:
         raise UsageError(f"{what} must be a number, got {text!r}") from None

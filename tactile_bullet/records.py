@@ -157,6 +157,10 @@ class ControllerSettings:
         if not MIN_DELTA <= self.delta <= 0.2:  # 1e-300 made the thumb's sweep 1e300 ticks
             raise UsageError(f"controller delta {self.delta} rad per tick is out of range "
                              f"({MIN_DELTA:g} to 0.2)")  # fmt: skip
+        if self.thres_t > 2.0 * self.motor_force:  # 1e9 ran every grasp to max_time
+            raise UsageError(f"controller thres_t {self.thres_t:g} N m is above the strongest "
+                             f"finger motor's torque ({2.0 * self.motor_force:g} N m, twice "
+                             "motor_force): no joint could reach it")  # fmt: skip
         for flag in ("preshape", "early_stop"):
             if not isinstance(getattr(self, flag), bool | np.bool_):
                 raise UsageError(

@@ -216,6 +216,29 @@ def test_import_labels_grasps_from_a_labels_file(tmp_path, capsys, recordings):
     assert "give one" in err
 
 
+def test_import_refuses_a_recording_given_twice_and_a_shape_name_in_other_case(
+    tmp_path, capsys, recordings
+):
+    """The same file twice (under two paths) would count its grasps twice or label them two
+    ways; 'CONE' would be a class of its own beside 'cone'. Any other name is the user's own
+    class and is kept."""
+    cones = str(recordings / "cones.csv")
+    twice = f"{recordings}/./cones.csv"
+    for argv, words in [
+        ([cones, cones, "--shape", "cone", "--shape", "sphere"], "is given twice"),
+        ([cones, twice, "--shape", "cone"], f"is given twice (as {cones} and {twice})"),
+        ([cones, "--shape", "CONE"], "did you mean 'cone'"),
+    ]:
+        err = run_error(capsys, ["import", *argv, "--out", str(tmp_path / "b")])
+        assert words in err and not (tmp_path / "b").exists(), argv
+    labels = tmp_path / "labels.csv"
+    labels.write_text("cones.csv,Sphere\n")
+    argv = ["import", cones, "--labels", str(labels), "--out", str(tmp_path / "b")]
+    assert "did you mean 'sphere'" in run_error(capsys, argv)
+    doc = _json(capsys, ["import", cones, "--shape", "mug", "--out", str(tmp_path / "a")])
+    assert doc["labels"] == {"mug": 2}
+
+
 @pytest.fixture(scope="module")
 def few_known(tmp_path_factory):
     """Two known grasps of each of three shapes (the calibrated way costs a fit per grasp)."""

@@ -25,6 +25,7 @@ def _run(capsys, *argv):
     ("argv", "message"),
     [
         (["--protocol", "unseen-shapes"], "unknown protocol 'unseen-shapes'"),
+        (["--protocol", "nosuch"], "robustness and active each run alone"),
         (["--descriptor", "signatur"], "signatur"),
         (["--classifier", "svm,forest"], "forest"),
         (["--training", "noisy"], "unknown training 'noisy'"),

@@ -272,6 +272,8 @@ def test_a_sweep_knows_its_size_without_expanding_it():
     "argv",
     [
         ["grasp", "--shape", "sphere", "--max-time", "1e9"],
+        ["grasp", "--shape", "sphere", "--thres", "1e9"],
+        ["grasp", "--shape", "cylinder", "--param", "radius=0.0_4"],
         ["grasp", "--shape", "sphere", "--offset", "1e300,0,0"],
         ["sequential", "--synthetic", "--classes", "1000", "--per-class", "1000000"],
     ],
@@ -358,3 +360,29 @@ def test_hand_model_must_be_an_mjcf_file_checked_before_mujoco_reads_it(tmp_path
         os.mkfifo(path)
     err = run_error(capsys, ["grasp", "--shape", "sphere", "--hand-model", str(path)])
     assert "hand model" in err or "MJCF" in err
+
+
+@pytest.mark.parametrize(
+    "argv",
+    [
+        ["grasp", "--shape", "cylinder", "--param", "radius=0.03", "--param", "radius=0.04"],
+        ["explore", "--shape", "cylinder", "--param", "radius=0.03", "--param", " radius=0.04"],
+        ["train", "--data", "D", "--out", "m.npz", "--param", "C=1", "--param", "C=2"],
+    ],
+)
+def test_a_key_given_twice_is_refused_not_the_last_kept(capsys, argv):
+    err = run_error(capsys, argv)
+    assert "is given twice" in err and "give it once" in err
+
+
+@pytest.mark.parametrize(
+    "command", [["evaluate", "--data"], ["adapt", "--out", "m.npz", "--known"]]
+)
+def test_a_recording_given_where_records_are_read_is_named_with_how_to_import_it(
+    tmp_path, capsys, command
+):
+    recording = tmp_path / "session.csv"
+    recording.write_text("time,FFJ3\n0.0,0.1\n")
+    err = run_error(capsys, [*command, str(recording)])
+    assert f"{recording} is not a readable grasp record" in err
+    assert f"tactile-bullet import {recording} --out DIR" in err

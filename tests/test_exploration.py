@@ -237,6 +237,8 @@ def test_explore_json_has_the_answer_and_every_grasp(capsys, tmp_path):
     [
         (["--max-grasps", "0"], "at least 1"),
         (["--max-grasps", "two"], "whole number"),
+        (["--max-grasps", "8"], f"from 1 to {E.MAX_GRASPS} (the first pose and its reachable"),
+        (["--max-grasps", "99999999999999999999"], "from 1 to 7"),
         (["--offset", "0.018,0,0"], "reachable set"),
         (["--rotation", "28"], "reachable set"),
         (["--strategy", "greedy"], "invalid choice"),

@@ -153,6 +153,10 @@ def _bad_inputs(tmp, files):
             "not increasing",
         ),
         "empty value": (_csv(tmp / "e.csv", names, [[0.0, "", *zero[1:]]]), [], "no value"),
+        "value out of range": (
+            _csv(tmp / "r.csv", names, [[0.0, 1e300, *zero[1:]]]), [],
+            f"{tmp / 'r.csv'}: joint {names[0]} at 0 s: value 1e+300 rad is outside",
+        ),
         "not a recording": (_csv(tmp / "n.txt", names, []), [], "unknown recording type"),
         "missing file": (tmp / "nope.bag", [], "does not exist"),
     }  # fmt: skip
@@ -161,7 +165,7 @@ def _bad_inputs(tmp, files):
 @pytest.mark.parametrize(
     "case",
     ["truncated bag", "bag without the topic", "missing joint", "unknown joint",
-     "time going back", "empty value", "not a recording", "missing file"],
+     "time going back", "empty value", "value out of range", "not a recording", "missing file"],
 )  # fmt: skip
 def test_bad_recordings_exit_2_with_one_line_and_write_nothing(tmp_path, capsys, files, case):
     path, extra, words = _bad_inputs(tmp_path, files)[case]

@@ -143,10 +143,30 @@ def test_robustness_refuses_bad_input_before_any_grasp(tmp_path, capsys, extra, 
     assert not (tmp_path / "m").exists()
 
 
+def test_a_bad_other_hand_file_is_named_by_the_option_it_came_by(tmp_path, capsys):
+    garbage = tmp_path / "garbage.xml"
+    garbage.write_text("<mujoco><worldbody><body name='x'/></worldbody></mujoco>")
+    err = run_error(capsys, ["benchmark", "--protocol", "robustness", "--scale", "tiny",
+                             "--out", str(tmp_path / "m"), "--other-hand",
+                             f"gymnasium={garbage}"])  # fmt: skip
+    assert f"--other-hand gymnasium={garbage}" in err
+    assert "--hand-model" not in err
+
+
 def test_other_hand_is_refused_outside_the_robustness_protocol(tmp_path, capsys):
     err = run_error(capsys, ["benchmark", "--protocol", "sim-shift", "--other-hand",
                              "menagerie=x.xml", "--out", str(tmp_path / "b")])  # fmt: skip
     assert "--protocol robustness" in err
+
+
+@pytest.mark.parametrize("protocol", ["sim-shift", "robustness", "active"])
+def test_a_cache_that_is_a_file_is_refused_before_any_grasp(tmp_path, capsys, protocol):
+    afile = tmp_path / "afile"
+    afile.write_text("kept")
+    err = run_error(capsys, ["benchmark", "--protocol", protocol, "--scale", "tiny", "--cache",
+                             str(afile), "--out", str(tmp_path / "b")])  # fmt: skip
+    assert f"--cache {afile} exists and is not a folder" in err
+    assert not (tmp_path / "b").exists() and afile.read_text() == "kept"
 
 
 def test_the_readme_cylinder_is_named_cylinder_with_the_shape_fits_dissent(capsys):

@@ -126,7 +126,7 @@ def test_training_refuses_empty_or_single_shape_data(data):
     with pytest.raises(UsageError, match="no grasp records"):
         workflow.train([], "signature", "svm")
     cones = [r for r in data[0] if r.shape == "cone"]
-    with pytest.raises(UsageError, match="at least two shapes"):
+    with pytest.raises(UsageError, match="at least two shapes, the data holds only 'cone'$"):
         workflow.train(cones, "signature", "svm")
 
 

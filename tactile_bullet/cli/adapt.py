@@ -18,7 +18,7 @@ def add_parser(sub) -> None:
         "the known grasps added; with --data, the default's method trained on that set with "
         "the known grasps added) by cross-validation on the known grasps alone (folds "
         "stratified by shape, each grasp predicted by a model fitted without it), keep the "
-        "best, print its expected accuracy with a 95%% interval and whether more grasps per "
+        "best, print its expected accuracy with a 95% interval and whether more grasps per "
         "shape would help, and write it as one model file for identify --model "
         "(docs/real_hand.md).",
     )

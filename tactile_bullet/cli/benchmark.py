@@ -84,6 +84,8 @@ def run(args: argparse.Namespace) -> int:
     from ..experiments.benchmark import default_classifiers, default_descriptors, run_benchmark
     from .compare import name_list
 
+    if args.cache is not None and Path(args.cache).exists() and not Path(args.cache).is_dir():
+        raise UsageError(f"--cache {args.cache} exists and is not a folder")
     if "robustness" in [p.strip() for p in str(args.protocol).split(",")]:
         return run_robustness(args)
     if args.replicate:

@@ -16,7 +16,11 @@ from ..errors import UsageError
 
 
 def parse_number(text: str, what: str) -> float:
+    """A finite float; Python's digit separators (``0.0_4``) are refused, as in tables: a
+    typo reads as another number."""
     try:
+        if "_" in text:
+            raise ValueError(text)
         value = float(text)
     except ValueError:
         raise UsageError(f"{what} must be a number, got {text!r}") from None
@@ -34,12 +38,16 @@ def parse_vector(text: str, n: int, what: str) -> tuple[float, ...]:
 
 
 def parse_key_values(items: Sequence[str] | None, what: str = "--param") -> dict[str, str]:
-    """['k=v', ...] -> {k: v} (values left as text; callers convert)."""
+    """['k=v', ...] -> {k: v} (values left as text; callers convert); a key given twice is an
+    error, not the last value silently."""
     out: dict[str, str] = {}
     for item in items or ():
         key, sep, value = item.partition("=")
         if not sep or not key.strip():
             raise UsageError(f"{what} expects key=value, got {item!r}")
+        if key.strip() in out:
+            raise UsageError(f"{what} {key.strip()} is given twice ({out[key.strip()]} and "
+                             f"{value.strip()}): give it once")  # fmt: skip
         out[key.strip()] = value.strip()
     return out
 

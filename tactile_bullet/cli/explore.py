@@ -41,7 +41,8 @@ def add_parser(sub) -> None:
         "default 0)",
     )
     parser.add_argument(
-        "--max-grasps", type=count(1), default=3, metavar="K", help="at most K grasps (default 3)"
+        "--max-grasps", type=count(1), default=3, metavar="K",
+        help="at most K grasps (default 3; at most 7, the first pose and its reachable moves)",
     )
     parser.add_argument(
         "--strategy", choices=("planned", "random", "repeat"), default="planned",

@@ -97,6 +97,43 @@ def file_shapes(
     """Each file's labels, before any recording is read: ``{None: shape}`` labels every grasp
     of the file, ``{k: shape}`` its grasp ``k``; from ``--shape`` (once: every file; once per
     file: in order) or a ``--labels`` CSV. Every problem is a UsageError."""
+    _check_distinct(files)
+    out = _file_shapes(files, shape, labels)
+    for by in out:
+        for label in by.values():
+            _check_label(label)
+    return out
+
+
+def _check_distinct(files: list[str]) -> None:
+    """A UsageError where one recording is given twice (under any two paths): its grasps
+    would be counted twice, or labelled two ways."""
+    import os
+
+    seen: dict[str, str] = {}
+    for f in files:
+        key = os.path.realpath(f)
+        if key in seen:
+            raise UsageError(f"{f} is given twice (as {seen[key]} and {f}): give each "
+                             "recording once")  # fmt: skip
+        seen[key] = f
+
+
+def _check_label(label: str) -> None:
+    """A UsageError where a label differs from a known shape's name by case only (a typo that
+    would make a class of its own); any other name is the user's own class (a mesh's object,
+    say), as simulated object sets label theirs."""
+    from ..plugins import shape_names
+
+    known = {n.lower(): n for n in shape_names()}
+    if label not in known.values() and label.lower() in known:
+        raise UsageError(f"label {label!r} is not a shape name (names are case-sensitive): "
+                         f"did you mean {known[label.lower()]!r}?")  # fmt: skip
+
+
+def _file_shapes(
+    files: list[str], shape: list[str] | None, labels: str | None
+) -> list[dict[int | None, str]]:
     out: list[dict[int | None, str]] = [{} for _ in files]
     if shape and labels:
         raise UsageError("--shape and --labels both label the grasps: give one")

@@ -266,6 +266,11 @@ class PartialDataWarning(UserWarning):
     """Records were skipped because part of the data is damaged (``allow_partial``)."""
 
 
+RECORDING_SUFFIXES = (".csv", ".parquet", ".pq", ".bag", ".db3", ".mcap")
+"""A real hand's recordings (``realhand/recordings.py``): given where records are read, the
+error says how to import them."""
+
+
 def read_records(
     path: str | os.PathLike,
     allow_partial: bool = False,
@@ -296,9 +301,12 @@ def read_records(
             try:
                 loaded.records.append(load_record(file))
             except DECODE_ERRORS as exc:  # load_record names the file in its UsageErrors
-                why = _first_line(exc)
-                if not isinstance(exc, UsageError):
-                    why = f"{file} is not a readable grasp record ({why})"
+                if isinstance(exc, UsageError):
+                    why = str(exc).splitlines()[0]
+                else:
+                    why = f"{file} is not a readable grasp record ({_first_line(exc)})"
+                if file.suffix.lower() in RECORDING_SUFFIXES:
+                    why += f"; a recording is read by `tactile-bullet import {file} --out DIR`"
                 if not allow_partial:
                     raise UsageError(why) from None
                 loaded.problems.append(Problem(str(file), why.replace(f"{file}", "it", 1), 1))

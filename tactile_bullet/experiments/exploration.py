@@ -56,6 +56,9 @@ MOVES: tuple[tuple[float, float, float], ...] = (
     (0.0, 0.0, 20.0), (0.0, 0.0, -20.0), (0.0, 0.0, 0.0),
 )  # fmt: skip
 """Candidate moves from the first grasp's pose: (dx m, dz m, dalpha deg); the last repeats it."""
+MAX_GRASPS = len(MOVES)
+"""Most grasps of one exploration: the first pose and its reachable moves. In simulation a
+grasp made again at a pose is the same grasp and counts once, so more grasps add nothing."""
 HYPOTHESES = 3
 """Most likely shapes simulated per decision."""
 SIZE_STEP = 0.08
@@ -485,8 +488,10 @@ def explore(
         raise UsageError(f"unknown strategy {strategy!r} (planned, random, repeat)")
     if fusion not in ("model", "simulated"):
         raise UsageError(f"unknown fusion {fusion!r} (model, simulated)")
-    if isinstance(max_grasps, bool) or not isinstance(max_grasps, int) or max_grasps < 1:
-        raise UsageError(f"--max-grasps must be a whole number >= 1, got {max_grasps!r}")
+    if (isinstance(max_grasps, bool) or not isinstance(max_grasps, int)
+            or not 1 <= max_grasps <= MAX_GRASPS):  # fmt: skip
+        raise UsageError(f"--max-grasps must be a whole number from 1 to {MAX_GRASPS} (the "
+                         f"first pose and its reachable moves), got {max_grasps!r}")  # fmt: skip
     check_reachable(first, "the first pose")
     model = resolve_model(None) if model is None else model
     cache = cache if cache is not None else SimulationCache()

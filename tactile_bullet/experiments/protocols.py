@@ -393,7 +393,7 @@ def resolve(names: str | Sequence[str] | None, engine: str = "bullet") -> list[s
         if n not in PROTOCOL_NAMES:
             raise UsageError(
                 f"unknown protocol {n!r} (known: {', '.join(PROTOCOL_NAMES)}, or 'all' for "
-                f"{', '.join(DEFAULT_PROTOCOLS)})"
+                f"{', '.join(DEFAULT_PROTOCOLS)}; robustness and active each run alone)"
             )
     if "coupling-shift" in items:
         _no_rule_shift(engine)

@@ -327,7 +327,11 @@ def parse_hands(items: Sequence[str] | None) -> dict[str, str]:
                 raise UsageError(f"--other-hand names {name} twice")
             from ..sim.engines.mujoco_hand import load_hand_spec
 
-            load_hand_spec(path.strip())  # a bad model stops here, before any grasp
+            try:  # a bad model stops here, before any grasp
+                load_hand_spec(path.strip())
+            except UsageError as exc:  # its message names the option the file came by
+                text = str(exc).replace("--hand-model ", f"--other-hand {name}=", 1)
+                raise UsageError(text) from None
             out[name] = path.strip()
     return out
 

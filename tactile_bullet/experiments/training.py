@@ -110,7 +110,7 @@ def train(
     records = _checked(records, "training")
     y = labels_of(records)
     if len(set(y)) < 2:
-        raise UsageError(f"training needs at least two shapes, the data holds only {y[0]!r}")
+        raise UsageError(f"training needs at least two shapes, the data holds only {str(y[0])!r}")
     desc = get_descriptor(descriptor, **dict(descriptor_params or {}))
     estimator = _estimator(classifier, params)  # names and parameters checked before work
     reason = _incompatible(desc.name, classifier)

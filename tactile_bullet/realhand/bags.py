@@ -122,7 +122,8 @@ def read_bag(
             for conn, t_recv, raw in reader.messages(connections=wanted):
                 msg = reader.deserialize(raw, conn.msgtype)
                 if conn.topic != topic:
-                    events.append((t_recv, _marker_event(msg, conn.msgtype, where)))
+                    state = conn.msgtype == "std_msgs/msg/Bool"
+                    events.append((t_recv, _marker_event(msg, conn.msgtype, where), state))
                     continue
                 names = tuple(msg.name)
                 if current is None or names != current.names:
@@ -232,26 +233,36 @@ def _marker_event(msg, msgtype: str, where: str) -> tuple[str, str | None, str |
 def _windows(
     events, origin_ns: int, where: str
 ) -> tuple[list[tuple[float, float, str | None]], list[str | None]]:
-    """Pair start/end marker events into (start, end, label) windows (s from ``origin_ns``),
-    with each window's object mark; a UsageError where a grasp's start and end name two
-    objects (its marks disagree)."""
+    """Pair marker events (receive time, (event, label, object), whether a Bool state) into
+    (start, end, label) windows (s from ``origin_ns``), with each window's object mark; a
+    UsageError where a grasp's start and end name two objects or two shapes (its marks
+    disagree), or where a 'start' comes while a grasp is still open (its 'end' is missing: the
+    window would take in the open hand's idle time up to the next grasp). A last grasp left
+    open runs to the end of the recording. A Bool state repeated unchanged, or false before
+    any grasp, is no event."""
     windows, objects = [], []
-    open_at, label, obj = None, None, None
-    for t_ns, (event, lab, ob) in sorted(events, key=lambda e: e[0]):
+    open_at, label, obj, last_state = None, None, None, None
+    for t_ns, (event, lab, ob), state in sorted(events, key=lambda e: e[0]):
         t = (int(t_ns) - origin_ns) / 1e9
+        if state:  # a Bool marker publishes the state, true while grasping
+            if event == last_state or (event == "end" and open_at is None):
+                last_state = event
+                continue  # unchanged, or open before any grasp: no event
+            last_state = event
         if event == "start":
             if open_at is not None:
-                windows.append((open_at, t, label))
-                objects.append(obj)
+                raise UsageError(f"{where}: grasp marker 'start' at {t:.3f} s while the grasp "
+                                 f"started at {open_at:.3f} s has no 'end'")  # fmt: skip
             open_at, label, obj = t, lab, ob
         elif open_at is None:
             raise UsageError(f"{where}: grasp marker 'end' at {t:.3f} s without a 'start'")
         else:
-            if obj is not None and ob is not None and ob != obj:
-                raise UsageError(
-                    f"{where}: the grasp marked from {open_at:.3f} s to {t:.3f} s starts on "
-                    f"object {obj!r} and ends on {ob!r}: its object marks disagree"
-                )
+            for what, first, last in (("object", obj, ob), ("shape", label, lab)):
+                if first is not None and last is not None and first != last:
+                    raise UsageError(
+                        f"{where}: the grasp marked from {open_at:.3f} s to {t:.3f} s starts "
+                        f"on {what} {first!r} and ends on {last!r}: its {what} marks disagree"
+                    )
             windows.append((open_at, t, label or lab))
             objects.append(obj or ob)
             open_at = None

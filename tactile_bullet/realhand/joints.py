@@ -91,7 +91,7 @@ class JointMap:
         self._identity = bool(np.all(self._scale == 1.0) and np.all(self._offset == 0.0))
         ranges = np.array([joint_range(c) for c in canon], float).reshape(-1, 2)
         self._lo, self._hi = ranges[:, 0], ranges[:, 1]
-        self._where = where
+        self._where = where  # "FILE: ", ready to prefix a message
 
     def positions(self, raw: np.ndarray, time: np.ndarray | float | None = None) -> np.ndarray:
         """Published positions (..., k) -> record angles (..., 24): calibrated, checked
@@ -131,7 +131,7 @@ class JointMap:
             "(joint limits plus tolerance, docs/hand.md)"
         )  # fmt: skip
         raise UsageError(
-            f"{self._where + ': ' if self._where else ''}joint {self.names[col]}{when}: "
+            f"{self._where}joint {self.names[col]}{when}: "
             f"{label} {value:.6g} rad is {problem}"
         )
 

@@ -151,8 +151,8 @@ def grasps_from_samples(
 ) -> list[RecordedGrasp]:
     out = []
     for k, (lo, hi, label) in enumerate(_ranges(samples, gap_s)):
-        if samples.labels and label is None:
-            label = next((v for v in samples.labels[lo : hi + 1] if v), None)
+        if samples.labels and label is None and shape is None:  # --shape overrides them
+            label = _one_of(samples, samples.labels, lo, hi, k, "shape", "labelled")
         record = record_from_samples(
             samples.time[lo : hi + 1],
             samples.angles[lo : hi + 1],
@@ -163,26 +163,46 @@ def grasps_from_samples(
         out.append(
             RecordedGrasp(
                 record, samples.source, k, float(samples.time[lo]), float(samples.time[hi]),
-                _object_of(samples, lo, hi, k),
+                _one_of(samples, samples.objects, lo, hi, k, "object", "of objects"),
             )
         )
+    if shape is None:
+        _check_objects(samples.source, out)
     return out
 
 
-def _object_of(samples: JointSamples, lo: int, hi: int, k: int) -> str | None:
-    """The one object a grasp's rows are marked with (None where unmarked); a UsageError where
-    its rows name two (the marks disagree with the grasps found)."""
-    if not samples.objects:
+def _one_of(samples: JointSamples, column: Sequence, lo: int, hi: int, k: int, name: str,
+            spans: str) -> str | None:  # fmt: skip
+    """The one value (a shape label, an object mark) a grasp's rows of ``column`` carry, None
+    where they carry none; a UsageError where they carry two (the column disagrees with the
+    grasps found)."""
+    if not column:
         return None
-    found = sorted({v for v in samples.objects[lo : hi + 1] if v})
+    found = sorted({v for v in column[lo : hi + 1] if v})
     if len(found) > 1:
         raise UsageError(
             f"{samples.source}: grasp {k + 1} ({float(samples.time[lo]):.2f}-"
-            f"{float(samples.time[hi]):.2f} s) spans rows of objects {', '.join(found)}: the "
-            "object column disagrees with the grasps found (mark each grasp's rows, or cut the "
+            f"{float(samples.time[hi]):.2f} s) spans rows {spans} {', '.join(found)}: the "
+            f"{name} column disagrees with the grasps found (mark each grasp's rows, or cut the "
             "grasps with a marker column)"
         )
     return found[0] if found else None
+
+
+def _check_objects(source: str, grasps: Sequence[RecordedGrasp]) -> None:
+    """A UsageError where grasps the recording marks as one object carry two shape labels:
+    one object has one shape, so its marks (or its labels) are wrong, and fusing its grasps
+    would outvote one label with the other."""
+    labels: dict[str, dict[str, int]] = {}
+    for g in grasps:
+        if g.object is not None and g.record.shape != UNKNOWN_SHAPE:
+            labels.setdefault(g.object, {}).setdefault(g.record.shape, g.index)
+    for name, found in labels.items():
+        if len(found) > 1:
+            which = ", ".join(f"{s} (grasp {i + 1})" for s, i in found.items())
+            raise UsageError(f"{source}: grasps marked as object {name!r} are labelled {which}: "
+                             "one object has one shape, so its object marks or its shape labels "
+                             "are wrong")  # fmt: skip
 
 
 def read_samples(

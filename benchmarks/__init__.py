@@ -63,6 +63,8 @@ NEEDS: dict[str, str] = {
     "their caches; about a minute",
     "torus_sphere_figure": "no dataset; simulates a MuJoCo torus and a Bullet ovoid and writes "
     "a picture (matplotlib; seconds)",
+    "novelty_sizes": "a full-scale robustness matrix's cache (--cache DIR/data, --replicate "
+    "K); a minute",
     "novelty_alternatives": "a full-scale robustness matrix's cache (--cache DIR/data), minutes",
     "shape_fit_equivalence": "git (it loads the shape fit of --ref, default adcd9c0, beside this "
     "one); --data DIR adds a simulated set (e.g. generate --preset thesis), minutes",

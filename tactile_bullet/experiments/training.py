@@ -124,7 +124,7 @@ def train(
         from ..learn.doubt import KnownGrasps
 
         reference = KnownGrasps.from_records(_checked(known, "known"))
-    from ..learn.novelty import grasp_groups
+    from ..learn.novelty import calibration_groups, grasp_groups
 
     groups = grasp_groups(records)  # noise-aware copies of a grasp held out together
     if doubt:
@@ -133,7 +133,7 @@ def train(
         # the ambiguity threshold, set on grasps each held out of a fit (learn/doubt.py)
         make = lambda: _estimator(classifier, params)  # noqa: E731
         info["doubt"] = model_doubt(make, x, y, records, classifier, reference, groups)
-    novelty = _novelty(x, y, groups)
+    novelty = _novelty(x, y, calibration_groups(records))
     if novelty is not None:
         info["novelty"] = novelty.summary()
     from ..perception.contact_check import ContactCheck

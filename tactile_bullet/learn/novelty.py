@@ -183,6 +183,37 @@ def group_split(y, groups, folds: int, seed: int):
     return list(GroupKFold(folds).split(dummy, groups=groups))
 
 
+HOLD_OUT_SIZES = False
+"""Calibrate the threshold with every grasp of one shape at one size held out together, where
+the training grasps each shape at several sizes: a grasp of an unseen size finds no twin of its
+own size among the training grasps, while a held-out grasp whose size stays in the reference
+(its twins at other poses and hands) always does, so the threshold never saw the distance
+between two sizes. Declared before the fourteenth replicate (docs/robustness.md)."""
+
+
+def calibration_groups(records, folds: int = FOLDS) -> np.ndarray | None:
+    """The groups the threshold's held-out folds keep whole: each grasp with its copies
+    (:func:`grasp_groups`), and under :data:`HOLD_OUT_SIZES` every grasp of one shape at one
+    size, where every shape is grasped at ``folds`` or more known sizes (elsewhere, a shape at
+    one size or a recording of unknown sizes, holding a size out would hold out the shape)."""
+    import json
+
+    groups = grasp_groups(records)
+    if not HOLD_OUT_SIZES or groups is None:
+        return groups
+    sizes: dict[str, set[str]] = {}
+    keys = []
+    for r in records:
+        params = dict(getattr(r, "params", None) or {})
+        key = json.dumps(sorted(params.items()), default=str)
+        sizes.setdefault(str(r.shape), set()).add(key if params else "")
+        keys.append(json.dumps([str(r.shape), key]))
+    if any("" in found or len(found) < folds for found in sizes.values()):
+        return groups
+    ids: dict[str, int] = {}
+    return np.asarray([ids.setdefault(k, len(ids)) for k in keys])
+
+
 def grasp_groups(records) -> np.ndarray | None:
     """One id per distinct grasp: records made from the same grasp (a shape, its sizes, pose,
     seed and controller; noise-aware training's perturbed copies) share it."""

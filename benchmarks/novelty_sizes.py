@@ -1,0 +1,95 @@
+"""The novelty threshold calibrated with whole sizes held out (``novelty.HOLD_OUT_SIZES``)
+against the calibration as shipped, on a robustness matrix's cached grasps.
+
+Both thresholds are fitted on the shipped default's training (read from the cache, as the
+matrix fits it) with the default's own features; every other part of the model is the shipped
+one, so only the novelty rule's verdicts differ. For each in-family column and each
+out-of-family set: grasps answered unknown both ways, and the wrong answers among them; then
+the rule declared before the fourteenth replicate (docs/robustness.md): (a) in-family grasps
+answered unknown, summed over the columns, fall; (b) out-of-family grasps answered unknown fall
+by at most 2 on each set; (c) wrong answers answered unknown, summed over the in-family
+columns, fall by at most 2.
+
+    python benchmarks/novelty_sizes.py --cache OUT/data --replicate 14
+"""
+
+from __future__ import annotations
+
+import argparse
+from dataclasses import replace
+from pathlib import Path
+
+import numpy as np
+from _report import provenance  # first: this checkout ahead of an installed copy
+from unknown_by_rule import _answers
+
+from tactile_bullet.datasets.dataset import read_records
+from tactile_bullet.experiments import robustness as R
+from tactile_bullet.experiments.robustness_sets import COLUMNS, OUT_OF_FAMILY_SETS, read_column
+from tactile_bullet.learn import novelty as N
+from tactile_bullet.learn.default import default_meta, default_model
+
+
+def thresholds(model, train) -> dict[str, N.Novelty]:
+    """The novelty fitted on ``train`` both ways, keyed by how it was calibrated."""
+    x = model.features(train)
+    y = np.array([R.FAMILY_OBJECTS.get(r.shape, r.shape) for r in train])
+    out = {}
+    for name, on in (("per grasp", False), ("sizes held out", True)):
+        N.HOLD_OUT_SIZES = on
+        out[name] = N.Novelty.fit(x, y, groups=N.calibration_groups(train))
+    N.HOLD_OUT_SIZES = False
+    return out
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--cache", required=True, help="a robustness matrix's data folder")
+    ap.add_argument("--replicate", type=int, default=0, help="the run's --replicate")
+    ap.add_argument("--seed", type=int, default=0, help="the run's --seed")
+    args = ap.parse_args(argv)
+    provenance(argv)
+    cache, tag = Path(args.cache), f"-r{args.replicate}" if args.replicate else ""
+    model = default_model()
+    train = R.training_records(cache, "full", default_meta()["training"])
+    fitted = thresholds(model, train)
+    print(", ".join(f"{k}: threshold {v.threshold:.3f}" for k, v in fitted.items()))
+    variants = {k: replace(model, novelty=v) for k, v in fitted.items()}
+    totals = {k: [0, 0] for k in variants}  # in-family unknown, wrong answers unknown
+    lost = {}
+    for name in OUT_OF_FAMILY_SETS:
+        records = read_records(cache / f"robust-{name}{tag}").records
+        found = {k: sum(r is not None for r in _answers(m, records)[1]) for k, m in
+                 variants.items()}  # fmt: skip
+        lost[name] = found["per grasp"] - found["sizes held out"]
+        print(f"{name:26s} {len(records):4d} grasps, unknown: "
+              + ", ".join(f"{k} {v}" for k, v in found.items()))
+    for column in COLUMNS:
+        sets = {s: read_records(cache / f"robust-{s}{tag}").records for s in column.sets}
+        records = read_column(column, sets, args.seed)
+        truths = np.array([R.FAMILY_OBJECTS.get(r.shape, r.shape) for r in records])
+        cells = []
+        for key, m in variants.items():
+            names, rules, _ = _answers(m, records)
+            unknown = np.array([r is not None for r in rules])
+            wrong = np.asarray(names).astype(str) != truths
+            totals[key][0] += int(unknown.sum())
+            totals[key][1] += int((unknown & wrong).sum())
+            cells.append(f"{key} {int(unknown.sum())} ({int((unknown & wrong).sum())} wrong)")
+        print(f"{column.name:26s} {len(records):4d} grasps, unknown: " + ", ".join(cells))
+    (old_u, old_w), (new_u, new_w) = totals["per grasp"], totals["sizes held out"]
+    checks = [
+        (new_u < old_u, f"(a) in-family grasps answered unknown, summed: {old_u} -> {new_u} "
+                        "(must fall)"),
+        (all(v <= 2 for v in lost.values()), "(b) out-of-family grasps no longer unknown: "
+         + ", ".join(f"{k} {v}" for k, v in lost.items()) + " (at most 2 each)"),
+        (old_w - new_w <= 2, f"(c) wrong answers answered unknown, summed: {old_w} -> {new_w} "
+                             "(fall by at most 2)"),
+    ]  # fmt: skip
+    print("\n".join(text for _, text in checks))
+    print("declared rule:", "kept" if all(ok for ok, _ in checks) else "reverted")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

@@ -130,3 +130,28 @@ def test_noisy_copies_of_a_grasp_are_held_out_together():
     leaky = Novelty.fit(x, y)
     grouped = Novelty.fit(x, y, groups=groups)
     assert grouped.threshold > 1.5 * leaky.threshold
+
+
+def test_whole_sizes_are_held_out_only_where_every_shape_has_several(monkeypatch):
+    """``HOLD_OUT_SIZES``: one group per shape and size, a grasp's copies and its other poses
+    in it; where a shape has fewer sizes than folds, or a grasp no known size (a recording),
+    the groups stay per grasp, since holding out a size would hold out the shape."""
+    from dataclasses import replace
+
+    from synthetic import make_records
+
+    from tactile_bullet.learn import novelty as N
+
+    records = make_records(per_shape=4, seed=4)
+    posed = [replace(r, seed=r.seed + 100) for r in records]  # the same sizes, other grasps
+    both = records + posed
+    per_grasp = N.calibration_groups(both)
+    assert len(set(per_grasp.tolist())) == len(both)
+    monkeypatch.setattr(N, "HOLD_OUT_SIZES", True)
+    sized = N.calibration_groups(both)
+    assert len(set(sized.tolist())) == len(records)  # each size with its twin
+    assert list(sized[: len(records)]) == list(sized[len(records):])
+    few = [r for r in both if r.shape != records[0].shape or r is records[0]]
+    assert len(set(N.calibration_groups(few).tolist())) == len(few)  # one size: per grasp
+    unsized = [replace(r, params={}) for r in both]
+    assert len(set(N.calibration_groups(unsized).tolist())) == len(both)

@@ -188,7 +188,10 @@ HOLD_OUT_SIZES = False
 the training grasps each shape at several sizes: a grasp of an unseen size finds no twin of its
 own size among the training grasps, while a held-out grasp whose size stays in the reference
 (its twins at other poses and hands) always does, so the threshold never saw the distance
-between two sizes. Declared before the fourteenth replicate (docs/robustness.md)."""
+between two sizes. Off: declared before the fourteenth replicate and reverted on it (fewer
+in-family grasps answered unknown, but more objects of no family answered as a family than
+the declared limit; the figures in docs/robustness.md); ``benchmarks/novelty_sizes.py`` scores
+it beside the calibration as shipped."""
 
 
 def calibration_groups(records, folds: int = FOLDS) -> np.ndarray | None:

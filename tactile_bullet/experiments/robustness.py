@@ -256,7 +256,7 @@ def _fit(cand: Candidate, x: np.ndarray, y: np.ndarray, train, seed: int,
                                        names=lambda recs, cls: _shape_fit_names(
                                            recs, fit_cache, cls), groups=groups)  # fmt: skip
     try:
-        novelty = Novelty.fit(x, y, seed=seed, groups=calibration_groups(train))
+        novelty = Novelty.fit(x, y, seed=seed, groups=calibration_groups(train, groups=groups))
     except ValueError:
         novelty = None
     from ..perception.contact_check import ContactCheck

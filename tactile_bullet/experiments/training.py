@@ -133,7 +133,7 @@ def train(
         # the ambiguity threshold, set on grasps each held out of a fit (learn/doubt.py)
         make = lambda: _estimator(classifier, params)  # noqa: E731
         info["doubt"] = model_doubt(make, x, y, records, classifier, reference, groups)
-    novelty = _novelty(x, y, calibration_groups(records))
+    novelty = _novelty(x, y, calibration_groups(records, groups=groups))
     if novelty is not None:
         info["novelty"] = novelty.summary()
     from ..perception.contact_check import ContactCheck

@@ -194,14 +194,16 @@ the declared limit; the figures in docs/robustness.md); ``benchmarks/novelty_siz
 it beside the calibration as shipped."""
 
 
-def calibration_groups(records, folds: int = FOLDS) -> np.ndarray | None:
+def calibration_groups(records, folds: int = FOLDS,
+                       groups: np.ndarray | None = None) -> np.ndarray | None:  # fmt: skip
     """The groups the threshold's held-out folds keep whole: each grasp with its copies
-    (:func:`grasp_groups`), and under :data:`HOLD_OUT_SIZES` every grasp of one shape at one
-    size, where every shape is grasped at ``folds`` or more known sizes (elsewhere, a shape at
-    one size or a recording of unknown sizes, holding a size out would hold out the shape)."""
+    (``groups``, the records' :func:`grasp_groups` where the caller has them), and under
+    :data:`HOLD_OUT_SIZES` every grasp of one shape at one size, where every shape is grasped
+    at ``folds`` or more known sizes (elsewhere, a shape at one size or a recording of unknown
+    sizes, holding a size out would hold out the shape)."""
     import json
 
-    groups = grasp_groups(records)
+    groups = grasp_groups(records) if groups is None else groups
     if not HOLD_OUT_SIZES or groups is None:
         return groups
     sizes: dict[str, set[str]] = {}

@@ -613,3 +613,31 @@ def test_scored_by_readings_the_planner_never_regrasps_the_first_pose(monkeypatc
     assert (0.0, 0.0, 0.0) not in decision["gains"]
     assert set(decision["gains"]) == set(E.reachable_moves(first)) - {(0.0, 0.0, 0.0)}
     assert decision["gains"][decision["move"]] == max(decision["gains"].values()) > 0
+
+
+def test_a_planned_loop_stops_in_doubt_rather_than_grasp_a_pose_again():
+    """Where the planner's next pose is one already grasped, the simulated grasp would be the
+    first again, counted once, and every later decision the same: ``explore`` stops there and
+    says why (it made 3 identical grasps before). The ``active`` protocol, which scores every
+    count, still grasps to the end."""
+    ctl, first = ControllerSettings(engine="mujoco"), Pose((0.002, 0.0, 0.0))
+    size = {"waist_radius": 0.036, "end_radius": 0.042}
+    doc = E.explore("hyperboloid", size, first, ctl, max_grasps=3)
+    assert doc["answer"]["grasps"] == 1 and doc["stopped"] == E.REPEAT_STOP
+    assert not E.settled(doc["answer"])  # stopped in doubt, not settled
+    assert tuple(doc["decisions"][0]["move"]) == (0.0, 0.0, 0.0)
+    scored = E.explore("hyperboloid", size, first, ctl, max_grasps=3, until_settled=False)
+    assert scored["answer"]["grasps"] == 3 and scored["stopped"] is None
+    assert scored["answer"]["posterior"] == doc["answer"]["posterior"]  # nothing lost
+
+
+def test_explore_says_why_it_stopped_in_doubt(capsys):
+    from tactile_bullet.cli import main
+
+    argv = ["explore", "--shape", "hyperboloid", "--param", "waist_radius=0.036", "--param",
+            "end_radius=0.042", "--offset", "0.002,0,0", "--engine", "mujoco"]  # fmt: skip
+    assert main(argv) == 0
+    assert "stopped after 1 grasp(s): the planner's next pose is one already grasped" in \
+        capsys.readouterr().out  # fmt: skip
+    assert main([*argv, "--json"]) == 0
+    assert json.loads(capsys.readouterr().out)["stopped"] == E.REPEAT_STOP

@@ -125,6 +125,8 @@ def run(args: argparse.Namespace) -> int:
                   "the simulated grasps of the decision before (none new)")  # fmt: skip
         print(f"  a next pose chosen in {d['seconds']:.2f} s from {source} of "
               f"{', '.join(h for h, _ in d['hypotheses'])}")  # fmt: skip
+    if doc["stopped"]:
+        print(f"  stopped after {made}: {doc['stopped']}")
     if "plot" in outputs:
         print(f"wrote plot: {outputs['plot']}")
     return 0

@@ -503,6 +503,7 @@ def explore(
     history: list[dict[str, Any]] = []
     hyps: list[Hypothesis] | None = None
     answers: list[dict[str, Any]] = []
+    stopped: str | None = None
     pose = first
     while True:
         record = simulate_grasp(target, params, pose, controller, seed=seed)
@@ -536,12 +537,31 @@ def explore(
                               "hypotheses": decision["hypotheses"],
                               "simulated": decision["simulated"],
                               "seconds": time.perf_counter() - started})  # fmt: skip
+            if until_settled and not FUSE_REPEATS and _grasped(pose, grasps):
+                # the same grasp again, counted once: the next decision would be this one
+                stopped = REPEAT_STOP
+                break
         elif strategy == "random":
             options = [m for m in reachable_moves(first) if any(m)]
             pose = moved(first, options[int(rng.integers(len(options)))])
         else:
             pose = first
-    return {"answer": fused, "grasps": entries, "decisions": decisions, "fused": history}
+    return {"answer": fused, "grasps": entries, "decisions": decisions, "fused": history,
+            "stopped": stopped}
+
+
+REPEAT_STOP = ("the planner's next pose is one already grasped: in simulation the same grasp, "
+               "counted once, so neither it nor any later decision could change the answer")
+"""Why a planned loop ends before ``max_grasps`` while still in doubt (``explore``'s
+``stopped``)."""
+
+
+def _grasped(pose: Pose, grasps: Sequence[Grasp]) -> bool:
+    """Whether a grasp was made at ``pose`` (within 1 um and 1e-6 deg, as :func:`unvisited`
+    compares moves)."""
+    first = grasps[0].pose
+    done = np.array([move_of(first, g.pose) for g in grasps], float)
+    return bool(np.any(np.all(np.abs(done - np.array(move_of(first, pose))) <= 1e-6, axis=1)))
 
 
 def _pose_doc(pose: Pose) -> dict[str, Any]:

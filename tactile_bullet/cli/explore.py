@@ -126,7 +126,8 @@ def run(args: argparse.Namespace) -> int:
         print(f"  a next pose chosen in {d['seconds']:.2f} s from {source} of "
               f"{', '.join(h for h, _ in d['hypotheses'])}")  # fmt: skip
     if doc["stopped"]:
-        print(f"  stopped after {made}: {doc['stopped']}")
+        print(f"  stopped after {made}: {doc['stopped']} (--strategy random grasps at other "
+              "poses)")  # fmt: skip
     if "plot" in outputs:
         print(f"wrote plot: {outputs['plot']}")
     return 0

@@ -641,3 +641,21 @@ def test_explore_says_why_it_stopped_in_doubt(capsys):
         capsys.readouterr().out  # fmt: skip
     assert main([*argv, "--json"]) == 0
     assert json.loads(capsys.readouterr().out)["stopped"] == E.REPEAT_STOP
+
+
+def test_the_active_protocol_stops_where_explore_stops():
+    """With the stopping rule, a planned object whose next pose repeats one already grasped
+    counts the grasps ``explore`` makes (1 here, not 3), the same answer."""
+    from tactile_bullet.experiments.active import _before_repeat, score_column
+    from tactile_bullet.learn.default import default_model
+
+    pose = lambda x, r=0.0: {"pose": {"offset": [x, 0.0, 0.0], "rotation_deg": r}}  # noqa: E731
+    assert _before_repeat([pose(0.0), pose(0.01), pose(0.0)]) == 1
+    assert _before_repeat([pose(0.0), pose(0.0), pose(0.0)]) == 0
+    assert _before_repeat([pose(0.0), pose(0.0, 20.0), pose(0.01)]) == 2
+    objects = [("hyperboloid", {"waist_radius": 0.036, "end_radius": 0.042},
+                Pose((0.002, 0.0, 0.0), 0.0))]  # fmt: skip
+    row, _ = score_column(objects, ControllerSettings(engine="mujoco"), default_model(),
+                          "planned", seed=0)  # fmt: skip
+    assert row["mean_grasps"] == 1.0 and len(row["made"][0]["grasps"]) == 3
+    assert row["stop_right"] == [row["right"][0][0]]

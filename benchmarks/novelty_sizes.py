@@ -5,6 +5,9 @@ Both thresholds are fitted on the shipped default's training (read from the cach
 matrix fits it) with the default's own features; every other part of the model is the shipped
 one, so only the novelty rule's verdicts differ. For each in-family column and each
 out-of-family set: grasps answered unknown both ways, and the wrong answers among them; then
+the grasps the shipped calibration calls unlike the training (novelty), by shape, engine and
+size, each with how far the nearest training grasp of that shape and engine lies in size (mm:
+the largest difference of one size parameter); then
 the rule declared before the fourteenth replicate (docs/robustness.md): (a) in-family grasps
 answered unknown, summed over the columns, fall; (b) out-of-family grasps answered unknown fall
 by at most 2 on each set; (c) wrong answers answered unknown, summed over the in-family
@@ -16,6 +19,7 @@ columns, fall by at most 2.
 from __future__ import annotations
 
 import argparse
+from collections import Counter
 from dataclasses import replace
 from pathlib import Path
 
@@ -40,6 +44,27 @@ def thresholds(model, train) -> dict[str, N.Novelty]:
         out[name] = N.Novelty.fit(x, y, groups=N.calibration_groups(train))
     N.HOLD_OUT_SIZES = False
     return out
+
+
+def size_gaps(flagged, train) -> list[str]:
+    """One line per distinct (shape, engine, sizes) of ``flagged``: how many grasps, and the
+    nearest training size of that shape on that engine (mm apart, largest parameter)."""
+    sizes: dict[tuple, list[np.ndarray]] = {}
+    for r in train:
+        key = (r.shape, r.controller.engine)
+        sizes.setdefault(key, []).append(np.array([r.params[k] for k in sorted(r.params)]))
+    groups: Counter = Counter()
+    for r in flagged:
+        groups[(r.shape, r.controller.engine, tuple(sorted(r.params.items())))] += 1
+    lines = []
+    for (shape, engine, params), n in sorted(groups.items()):
+        here = np.array([v for _, v in params])
+        known = np.array(sizes.get((shape, engine), [])).reshape(-1, len(here))
+        gap = 1000 * np.abs(known - here).max(axis=1).min() if len(known) else float("nan")
+        shown = ", ".join(f"{k} {1000 * v:.1f} mm" for k, v in params)
+        lines.append(f"  {n} x {shape} ({shown}) on {engine}: nearest training size {gap:.1f} "
+                     "mm away")  # fmt: skip
+    return lines
 
 
 def main(argv=None) -> int:
@@ -76,7 +101,11 @@ def main(argv=None) -> int:
             totals[key][0] += int(unknown.sum())
             totals[key][1] += int((unknown & wrong).sum())
             cells.append(f"{key} {int(unknown.sum())} ({int((unknown & wrong).sum())} wrong)")
+            if key == "per grasp":
+                novel = [r for r, why in zip(records, rules, strict=True) if why == "novelty"]
         print(f"{column.name:26s} {len(records):4d} grasps, unknown: " + ", ".join(cells))
+        if novel and all(r.params for r in novel):
+            print("\n".join(size_gaps(novel, train)))
     (old_u, old_w), (new_u, new_w) = totals["per grasp"], totals["sizes held out"]
     checks = [
         (new_u < old_u, f"(a) in-family grasps answered unknown, summed: {old_u} -> {new_u} "

@@ -646,16 +646,19 @@ def test_explore_says_why_it_stopped_in_doubt(capsys):
 def test_the_active_protocol_stops_where_explore_stops():
     """With the stopping rule, a planned object whose next pose repeats one already grasped
     counts the grasps ``explore`` makes (1 here, not 3), the same answer."""
-    from tactile_bullet.experiments.active import _before_repeat, score_column
+    from tactile_bullet.experiments.active import score_column
     from tactile_bullet.learn.default import default_model
 
-    pose = lambda x, r=0.0: {"pose": {"offset": [x, 0.0, 0.0], "rotation_deg": r}}  # noqa: E731
-    assert _before_repeat([pose(0.0), pose(0.01), pose(0.0)]) == 1
-    assert _before_repeat([pose(0.0), pose(0.0), pose(0.0)]) == 0
-    assert _before_repeat([pose(0.0), pose(0.0, 20.0), pose(0.01)]) == 2
+    first, turned = Pose((0.0, 0.0, 0.0), 0.0), Pose((0.0, 0.0, 0.0), math.radians(20.0))
+    assert E.visited((0.0, 0.0, 0.0), first, [first])  # the first pose again
+    assert E.visited((0.0, 0.0, 20.0), first, [first, turned])
+    assert not E.visited((0.01, 0.0, 0.0), first, [first, turned])
     objects = [("hyperboloid", {"waist_radius": 0.036, "end_radius": 0.042},
                 Pose((0.002, 0.0, 0.0), 0.0))]  # fmt: skip
     row, _ = score_column(objects, ControllerSettings(engine="mujoco"), default_model(),
                           "planned", seed=0)  # fmt: skip
     assert row["mean_grasps"] == 1.0 and len(row["made"][0]["grasps"]) == 3
     assert row["stop_right"] == [row["right"][0][0]]
+    doc = E.explore(*objects[0], ControllerSettings(engine="mujoco"), max_grasps=3,
+                    until_settled=False)  # fmt: skip
+    assert [d["repeats"] for d in doc["decisions"]] == [True, True]  # what the row reads

@@ -209,20 +209,6 @@ def run_active(
     return doc
 
 
-def _before_repeat(grasps) -> int:
-    """The index of the last grasp before the first one made at a pose already grasped (the
-    last grasp's where none is): with the stopping rule, ``explore`` stops there
-    (``exploration.REPEAT_STOP``), since in simulation that grasp and every later one repeat
-    an earlier grasp and change nothing."""
-    seen: list[np.ndarray] = []
-    for k, g in enumerate(grasps):
-        pose = np.array([*g["pose"]["offset"], g["pose"]["rotation_deg"]], float)
-        if any(np.all(np.abs(pose - p) <= 1e-6) for p in seen):
-            return k - 1
-        seen.append(pose)
-    return len(grasps) - 1
-
-
 def score_column(objects: Sequence[tuple], controller: ControllerSettings, model,
                  strategy: str, seed: int) -> tuple[dict[str, Any], list[float]]:
     """One strategy (``planned``, ``random``, ``repeat``, each optionally ``+simulated``) on one
@@ -252,8 +238,8 @@ def score_column(objects: Sequence[tuple], controller: ControllerSettings, model
         unknown[i] = [bool(f["unknown"]) for f in counts]
         shapes.append([str(f["shape"]) for f in counts])
         stop = next((k for k, f in enumerate(fused) if settled(f)), len(fused) - 1)
-        if how == "planned":  # where explore's own loop stops: a pose grasped again
-            stop = min(stop, _before_repeat(doc["grasps"]))
+        # where explore's own loop stops: a planned pose already grasped (``repeats``)
+        stop = min([stop, *(k for k, d in enumerate(doc["decisions"]) if d["repeats"])])
         stop_right.append(is_right(fused[stop], truth))
         stop_unknown.append(bool(fused[stop]["unknown"]))
         stop_used.append(stop + 1)

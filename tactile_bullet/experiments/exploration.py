@@ -154,14 +154,18 @@ def distinct(grasps: Sequence[Grasp]) -> list[int]:
     return keep
 
 
+def visited(move: Sequence[float], first: Pose, grasped: Sequence[Pose]) -> bool:
+    """Whether a grasp was made at the pose ``move`` takes ``first`` to (within 1 um and
+    1e-6 deg)."""
+    done = np.array([move_of(first, p) for p in grasped], float).reshape(-1, 3)
+    return bool(np.any(np.all(np.abs(done - np.asarray(move, float)) <= 1e-6, axis=1)))
+
+
 def unvisited(candidates: Sequence[Sequence[float]], first: Pose,
               grasped: Sequence[Pose]) -> list[tuple[float, float, float]]:
-    """The candidate moves whose pose no grasp was made at (within 1 um and 1e-6 deg); all of
-    them where every one was."""
-    done = np.array([move_of(first, p) for p in grasped], float).reshape(-1, 3)
-    tol = np.array([1e-6, 1e-6, 1e-6])
-    left = [tuple(m) for m in candidates
-            if not np.any(np.all(np.abs(done - np.asarray(m, float)) <= tol, axis=1))]
+    """The candidate moves whose pose no grasp was made at (:func:`visited`); all of them
+    where every one was."""
+    left = [tuple(m) for m in candidates if not visited(m, first, grasped)]
     return left or [tuple(m) for m in candidates]
 
 
@@ -536,8 +540,10 @@ def explore(
                                              decision["gains"].items()},
                               "hypotheses": decision["hypotheses"],
                               "simulated": decision["simulated"],
-                              "seconds": time.perf_counter() - started})  # fmt: skip
-            if until_settled and not FUSE_REPEATS and _grasped(pose, grasps):
+                              "seconds": time.perf_counter() - started,
+                              "repeats": visited(decision["move"], first,
+                                                 [g.pose for g in grasps])})  # fmt: skip
+            if until_settled and not FUSE_REPEATS and decisions[-1]["repeats"]:
                 # the same grasp again, counted once: the next decision would be this one
                 stopped = REPEAT_STOP
                 break
@@ -554,14 +560,6 @@ REPEAT_STOP = ("the planner's next pose is one already grasped: in simulation th
                "counted once, so neither it nor any later decision could change the answer")
 """Why a planned loop ends before ``max_grasps`` while still in doubt (``explore``'s
 ``stopped``)."""
-
-
-def _grasped(pose: Pose, grasps: Sequence[Grasp]) -> bool:
-    """Whether a grasp was made at ``pose`` (within 1 um and 1e-6 deg, as :func:`unvisited`
-    compares moves)."""
-    first = grasps[0].pose
-    done = np.array([move_of(first, g.pose) for g in grasps], float)
-    return bool(np.any(np.all(np.abs(done - np.array(move_of(first, pose))) <= 1e-6, axis=1)))
 
 
 def _pose_doc(pose: Pose) -> dict[str, Any]:

@@ -99,9 +99,7 @@ def file_shapes(
     file: in order) or a ``--labels`` CSV. Every problem is a UsageError."""
     _check_distinct(files)
     out = _file_shapes(files, shape, labels)
-    for by in out:
-        for label in by.values():
-            _check_label(label)
+    _check_labels({label for by in out for label in by.values()})
     return out
 
 
@@ -119,16 +117,17 @@ def _check_distinct(files: list[str]) -> None:
         seen[key] = f
 
 
-def _check_label(label: str) -> None:
+def _check_labels(labels: set[str]) -> None:
     """A UsageError where a label differs from a known shape's name by case only (a typo that
     would make a class of its own); any other name is the user's own class (a mesh's object,
     say), as simulated object sets label theirs."""
     from ..plugins import shape_names
 
     known = {n.lower(): n for n in shape_names()}
-    if label not in known.values() and label.lower() in known:
-        raise UsageError(f"label {label!r} is not a shape name (names are case-sensitive): "
-                         f"did you mean {known[label.lower()]!r}?")  # fmt: skip
+    for label in sorted(labels):
+        if label not in known.values() and label.lower() in known:
+            raise UsageError(f"label {label!r} is not a shape name (names are case-sensitive): "
+                             f"did you mean {known[label.lower()]!r}?")  # fmt: skip
 
 
 def _file_shapes(

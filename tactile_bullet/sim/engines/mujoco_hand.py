@@ -36,12 +36,12 @@ _ACTUATOR = re.compile(r"^(?:.*[_:])?(A_(?:FF|MF|RF|LF|TH|WR)J\d)$")
 _BODY = re.compile(r"^(?:.*[_:])?([a-z]+)$")
 
 
-
 def mjcf_path() -> Path:
     """The project's hand as MJCF, beside the URDF (``hand.urdf_path()``'s folder)."""
     from ...hand import urdf_path
 
     return urdf_path().with_name("shadow_hand.xml")
+
 
 def shadow_name(name: str | None, kind: str) -> str | None:
     """The Shadow name a model's element answers to (None: none)."""

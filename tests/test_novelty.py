@@ -155,3 +155,58 @@ def test_whole_sizes_are_held_out_only_where_every_shape_has_several(monkeypatch
     assert len(set(N.calibration_groups(few).tolist())) == len(few)  # one size: per grasp
     unsized = [replace(r, params={}) for r in both]
     assert len(set(N.calibration_groups(unsized).tolist())) == len(both)
+
+
+def _sized_grasps(rng, sizes, per_size):
+    """Grasps of one family along a curve of its size (the features bend with it, as a small
+    sphere's angles do), ``per_size`` noisy grasps at each of ``sizes``."""
+    s = np.repeat(np.asarray(sizes, float), per_size)
+    curve = np.stack([s, s**2, np.cos(2 * s)], axis=1)
+    return curve + rng.normal(0, 0.02, curve.shape), s
+
+
+def test_midpoints_of_neighbouring_sizes_bring_a_grasp_between_two_sizes_in():
+    """SIZE_MIDPOINTS: a grasp of a size between two training sizes is answered by its family,
+    not unknown, once the reference holds their midpoints; one off the family's curve stays
+    unknown, and the held-out calibration still leaves few in-family grasps unknown."""
+    rng = np.random.default_rng(5)
+    grid = np.linspace(0.0, 1.0, 5)
+    x, s = _sized_grasps(rng, grid, 40)
+    y = np.full(len(x), "sphere")
+    ranks = np.searchsorted(grid, s)
+    pairs = np.array([(i, int(rng.choice(np.flatnonzero(np.abs(ranks - ranks[i]) == 1))))
+                      for i in range(len(x))])  # fmt: skip
+    plain = Novelty.fit(x, y)
+    mids = Novelty.fit(x, y, pairs=pairs)
+    between, _ = _sized_grasps(rng, (grid[:-1] + grid[1:]) / 2, 10)
+    assert np.mean(plain.unknown(between)) > 0.9  # the gap the plain reference leaves
+    assert np.mean(mids.unknown(between)) < 0.3  # the curve's bend between sizes stays
+    off = np.array([[0.5, 0.75, 0.2]])  # a size's first two features, another's third
+    assert mids.unknown(off)[0]
+    assert len(mids.reference) == len(plain.reference) + len(pairs)
+    fresh, _ = _sized_grasps(rng, grid, 20)
+    assert np.mean(mids.unknown(fresh)) <= 2 * UNKNOWN_RATE
+
+
+def test_midpoint_pairs_join_neighbouring_sizes_of_one_shape_on_one_engine(monkeypatch):
+    from dataclasses import replace
+
+    from synthetic import make_records
+
+    from tactile_bullet.learn import novelty as N
+
+    records = make_records(per_shape=6, seed=7)
+    assert N.midpoint_pairs(records) is None  # off unless declared and kept
+    pairs = N.midpoint_pairs(records, on=True)
+    assert pairs is not None and len(pairs)
+    for i, j in pairs:
+        a, b = records[i], records[j]
+        assert a.shape == b.shape and a.controller.engine == b.controller.engine
+        assert a.params != b.params
+        for k in a.params:  # neighbours among the values this shape was grasped at
+            values = sorted({r.params[k] for r in records if r.shape == a.shape})
+            assert abs(values.index(a.params[k]) - values.index(b.params[k])) <= 1
+    monkeypatch.setattr(N, "SIZE_MIDPOINTS", True)
+    assert np.array_equal(N.midpoint_pairs(records), pairs)
+    unsized = [replace(r, params={}) for r in records]
+    assert N.midpoint_pairs(unsized) is None  # a recording's grasps: no known sizes

@@ -243,7 +243,7 @@ def _fit(cand: Candidate, x: np.ndarray, y: np.ndarray, train, seed: int,
     """The candidate fitted on one training, its doubt calibrated (the shape fit's answers read
     once a run) and its novelty."""
     from ..learn.doubt import calibrate_margin
-    from ..learn.novelty import Novelty, calibration_groups, grasp_groups
+    from ..learn.novelty import Novelty, calibration_groups, grasp_groups, midpoint_pairs
     from ..plugins import get_classifier
 
     groups = grasp_groups(train)  # noise-aware copies of a grasp held out together
@@ -256,7 +256,8 @@ def _fit(cand: Candidate, x: np.ndarray, y: np.ndarray, train, seed: int,
                                        names=lambda recs, cls: _shape_fit_names(
                                            recs, fit_cache, cls), groups=groups)  # fmt: skip
     try:
-        novelty = Novelty.fit(x, y, seed=seed, groups=calibration_groups(train, groups=groups))
+        novelty = Novelty.fit(x, y, seed=seed, groups=calibration_groups(train, groups=groups),
+                              pairs=midpoint_pairs(train, seed))
     except ValueError:
         novelty = None
     from ..perception.contact_check import ContactCheck

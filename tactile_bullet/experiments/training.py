@@ -124,7 +124,7 @@ def train(
         from ..learn.doubt import KnownGrasps
 
         reference = KnownGrasps.from_records(_checked(known, "known"))
-    from ..learn.novelty import calibration_groups, grasp_groups
+    from ..learn.novelty import calibration_groups, grasp_groups, midpoint_pairs
 
     groups = grasp_groups(records)  # noise-aware copies of a grasp held out together
     if doubt:
@@ -133,7 +133,7 @@ def train(
         # the ambiguity threshold, set on grasps each held out of a fit (learn/doubt.py)
         make = lambda: _estimator(classifier, params)  # noqa: E731
         info["doubt"] = model_doubt(make, x, y, records, classifier, reference, groups)
-    novelty = _novelty(x, y, calibration_groups(records, groups=groups))
+    novelty = _novelty(x, y, calibration_groups(records, groups=groups), midpoint_pairs(records))
     if novelty is not None:
         info["novelty"] = novelty.summary()
     from ..perception.contact_check import ContactCheck
@@ -152,14 +152,16 @@ def train(
     )
 
 
-def _novelty(x: np.ndarray, y: np.ndarray, groups: np.ndarray | None = None):
+def _novelty(x: np.ndarray, y: np.ndarray, groups: np.ndarray | None = None,
+             pairs: np.ndarray | None = None):  # fmt: skip
     """The model's :class:`~tactile_bullet.learn.novelty.Novelty` (answers ``unknown`` where a
     grasp lies far from every training grasp), None where too few grasps calibrate it;
-    ``groups``: copies of one grasp held out together."""
+    ``groups``: copies of one grasp held out together; ``pairs``: grasps of neighbouring
+    sizes whose midpoints join the reference."""
     from ..learn.novelty import Novelty
 
     try:
-        return Novelty.fit(x, y, groups=groups)
+        return Novelty.fit(x, y, groups=groups, pairs=pairs)
     except ValueError:
         return None
 

@@ -196,7 +196,7 @@ def test_midpoint_pairs_join_neighbouring_sizes_of_one_shape_on_one_engine(monke
     from tactile_bullet.learn import novelty as N
 
     records = make_records(per_shape=6, seed=7)
-    assert N.midpoint_pairs(records) is None  # off unless declared and kept
+    assert N.midpoint_pairs(records, on=False) is None
     pairs = N.midpoint_pairs(records, on=True)
     assert pairs is not None and len(pairs)
     for i, j in pairs:
@@ -206,7 +206,9 @@ def test_midpoint_pairs_join_neighbouring_sizes_of_one_shape_on_one_engine(monke
         for k in a.params:  # neighbours among the values this shape was grasped at
             values = sorted({r.params[k] for r in records if r.shape == a.shape})
             assert abs(values.index(a.params[k]) - values.index(b.params[k])) <= 1
-    monkeypatch.setattr(N, "SIZE_MIDPOINTS", True)
+    monkeypatch.setattr(N, "SIZE_MIDPOINTS", True)  # as kept on the fifteenth replicate
     assert np.array_equal(N.midpoint_pairs(records), pairs)
+    monkeypatch.setattr(N, "SIZE_MIDPOINTS", False)
+    assert N.midpoint_pairs(records) is None
     unsized = [replace(r, params={}) for r in records]
     assert N.midpoint_pairs(unsized) is None  # a recording's grasps: no known sizes

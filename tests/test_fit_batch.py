@@ -153,32 +153,3 @@ def test_a_family_decided_on_the_grid_is_not_kept_as_a_whole_fit(fresh_cache):
             assert shape_fit.name_or_fit(a, FAMILIES) is whole  # and read back after
             return
     pytest.fail("no grasp of 12 was decided on the grid")
-
-
-def _counting_chunk(rows):
-    """A worker's task that notes how many fits it was handed (in a file: it runs forked)."""
-    with open(os.environ["FIT_CHUNKS"], "a") as out:
-        out.write(f"{len(rows)}\n")
-    return [shape_fit.fit_shape(a, FAMILIES) for a in rows]
-
-
-@FORKS
-def test_the_cross_check_shares_out_only_the_grasps_the_grid_leaves_open(
-    fresh_cache, monkeypatch, tmp_path
-):
-    """A refined fit costs ~10 grid stages: the workers get only the grasps to refine, split
-    evenly, so neither idles while the other refines (the tour's evaluate)."""
-    angles = _angles(40)
-    open_ = [a for a in angles if shape_fit.grid_name(a, FAMILIES) is None]
-    fit_cache._NAMES.clear()
-    assert fit_batch.MIN_PARALLEL <= len(open_) < len(angles)
-    monkeypatch.setenv("FIT_CHUNKS", str(tmp_path / "chunks"))
-    monkeypatch.setattr(fit_batch, "_fit_chunk", _counting_chunk)
-    names = fit_batch.fit_names(angles, FAMILIES, workers=2)
-    sizes = sorted(int(n) for n in (tmp_path / "chunks").read_text().split())
-    assert sum(sizes) == len(open_)
-    if len(open_) <= 2 * fit_batch.CHUNK:
-        assert len(sizes) == 2 and sizes[1] - sizes[0] <= 1
-    fit_cache._FITS.clear()
-    fit_cache._NAMES.clear()
-    assert names == [shape_fit.fit_shape(a, FAMILIES).shape for a in angles]

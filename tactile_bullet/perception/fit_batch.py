@@ -26,19 +26,16 @@ import numpy as np
 from ..console import tick
 from .family_fit import ShapeFit, measured_features
 from .fit_cache import cached_answer, cached_fit, keep_fit, keep_name
-from .shape_fit import fit_shape, grid_name, prepare
+from .shape_fit import fit_shape, name_or_fit
 from .shape_model import Calibration, active_calibration
 
-MIN_PARALLEL = 4
-"""Fewest fits to refine worth forking for: a refined fit is ~20 ms, starting and stopping two
-forked workers 10-20 ms, so from a handful of fits two workers finish sooner."""
-
-GRID_PARALLEL = 64
-"""Fewest grid stages (~2 ms each: :func:`.shape_fit.grid_name`) worth sharing out."""
+MIN_PARALLEL = 32
+"""Fewest uncached fits worth forking for: a fit is ~20 ms, forking a worker a few ms, and a
+short batch split in two gains less than that."""
 
 CHUNK = 16
-"""Most fits per task handed to a worker: small enough that progress moves every ~0.3 s and the
-last tasks of the workers end close together (a shorter batch is split evenly instead)."""
+"""Fits per task handed to a worker: small enough that progress moves every ~0.3 s and the
+last tasks of the two workers end close together."""
 
 _JOB: tuple[tuple[str, ...], Calibration, Callable] | None = None
 """The families, coefficients and function of the batch being fitted, set before the workers
@@ -138,10 +135,8 @@ def fit_names(
     """The family :func:`.shape_fit.fit_shape` names for each (3, 4) final angles, in order,
     as :func:`fit_many` gives them, but with a fit's sizes only computed where the grid does
     not decide the family (:func:`.shape_fit.name_or_fit`): what the doubt's cross-check
-    reads. The grid stages run first, so that only the fits left to refine (~10 times the
-    cost of a grid stage) are shared out, evenly."""
-    found = _batch(angles, families, calibration, desc, workers, cached_answer, fit_shape,
-                   settle=grid_name)  # fmt: skip
+    reads."""
+    found = _batch(angles, families, calibration, desc, workers, cached_answer, name_or_fit)
     return [f if isinstance(f, str) else f.shape for f in found]
 
 
@@ -152,22 +147,9 @@ def _keep(features, names, cal, found):
     return keep_fit(features, names, cal, found, features=True)
 
 
-def _settled(settle: Callable, rows: list, names: tuple, cal: Calibration, workers: int) -> list:
-    """``settle(row, names, cal)`` of each row (a name, or None where the grid leaves it
-    open), shared out over the cores for a long batch (:data:`GRID_PARALLEL`)."""
-
-    def task(index: Sequence[int]) -> list:
-        return [settle(rows[i], names, cal) for i in index]
-
-    if workers < 2:
-        return task(range(len(rows)))
-    return on_cores(task, len(rows), GRID_PARALLEL, 4 * CHUNK)
-
-
-def _batch(angles, families, calibration, desc, workers, lookup, compute, settle=None) -> list:
-    """``compute(angles, families, cal)`` of each of ``angles`` not found by ``lookup`` (nor,
-    where given, decided by ``settle`` first), split over forked workers (see
-    :func:`fit_many`)."""
+def _batch(angles, families, calibration, desc, workers, lookup, compute) -> list:
+    """``compute(angles, families, cal)`` of each of ``angles`` not found by ``lookup``,
+    the uncached ones split over forked workers (see :func:`fit_many`)."""
     global _JOB
     names = tuple(dict.fromkeys(str(f) for f in families))
     cal = active_calibration() if calibration is None else calibration
@@ -177,28 +159,19 @@ def _batch(angles, families, calibration, desc, workers, lookup, compute, settle
     out: list = [lookup(f, names, cal, features=True) for f in features]
     todo = [i for i, found in enumerate(out) if found is None]
     workers = usable_cores() if workers is None else workers
+    workers = min(workers, -(-len(todo) // CHUNK))
     done = len(rows) - len(todo)
-    if todo:
-        prepare(names, cal)  # the grids, built here before any fork: the workers inherit them
-    if settle is not None and todo:
-        for i, name in zip(todo, _settled(settle, [rows[i] for i in todo], names, cal, workers),
-                           strict=True):  # fmt: skip
-            if name is not None:
-                out[i] = keep_name(features[i], names, cal, name, features=True)
-                done += 1
-        tick(desc, done, len(rows))
-        todo = [i for i in todo if out[i] is None]
     if len(todo) >= MIN_PARALLEL and workers > 1 and can_fork():
         import multiprocessing  # here: a single answer (grasp, identify) does not import them
         from concurrent.futures import ProcessPoolExecutor
         from concurrent.futures.process import BrokenProcessPool
 
-        size = min(CHUNK, -(-len(todo) // workers))
-        chunks = [todo[k : k + size] for k in range(0, len(todo), size)]
+        first = todo.pop(0)  # fitted here first: the grids are built before the fork
+        out[first] = compute(rows[first], names, cal)
+        done += 1
+        chunks = [todo[k : k + CHUNK] for k in range(0, len(todo), CHUNK)]
         _JOB = (names, cal, compute)
-        pool = ProcessPoolExecutor(
-            min(workers, len(chunks)), mp_context=multiprocessing.get_context("fork")
-        )
+        pool = ProcessPoolExecutor(workers, mp_context=multiprocessing.get_context("fork"))
         try:
             results = pool.map(_fit_chunk, [np.stack([rows[i] for i in c]) for c in chunks])
             for chunk, found in zip(chunks, results, strict=True):

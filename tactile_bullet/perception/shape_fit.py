@@ -168,10 +168,6 @@ class _Family:
         c = cal.loss_scale
         return 2.0 * c * c * (e @ ones - e.shape[1]) + self._grid_prior
 
-    def prepare(self, cal: Calibration) -> None:
-        """The grid's scaled predictions under ``cal``, made now (:func:`prepare`)."""
-        self.grid_costs(np.zeros((len(FEATURES), 4)), cal)
-
     def grid_prediction(self, cal: Calibration) -> np.ndarray:
         """The grid's predicted angles under ``cal`` (kept for the last calibration used)."""
         if self._cal is not cal:
@@ -536,44 +532,11 @@ def name_or_fit(
     known = cached_answer(measured, names, cal, features=True)
     if known is not None:
         return known
-    decided, state, near = _grid_decision(measured, names, cal)
-    if decided is not None:
-        return decided
-    return _kept(measured, names, cal, _refined(measured, state, near, cal))
-
-
-def grid_name(
-    angles,
-    families: Sequence[str] = THESIS_SHAPES,
-    calibration: Calibration | None = None,
-) -> str | None:
-    """:func:`name_or_fit`'s answer where the grid stage decides it (kept, as there), else
-    None: the grasps a batch must refine, known before any refining starts, so that
-    :mod:`.fit_batch` can share out only those (a refined fit costs ~10 grid stages)."""
-    measured, names, cal = _inputs(angles, families, calibration)
-    known = cached_answer(measured, names, cal, features=True)
-    if isinstance(known, str):
-        return known
-    return None if known is not None else _grid_decision(measured, names, cal)[0]
-
-
-def _grid_decision(measured: np.ndarray, names: list[str], cal: Calibration) -> tuple:
-    """(the family the grid stage decides, kept as such, or None; the stage's starts; the
-    near ones) (:func:`name_or_fit`)."""
     state, near = _grid_stage(measured, [_resolve_family(n) for n in names], cal)
     decided = {state[k][0].shape.name for k in near}
     if len(decided) == 1:
-        return keep_name(measured, names, cal, decided.pop(), features=True), state, near
-    return None, state, near
-
-
-def prepare(families: Sequence[str], calibration: Calibration | None = None) -> None:
-    """Build (or read) each family's grid and its predictions under the coefficients, as the
-    first fit would: done before :mod:`.fit_batch` forks, its workers inherit them instead of
-    each building its own."""
-    cal = active_calibration() if calibration is None else calibration
-    for name in dict.fromkeys(families):
-        _resolve_family(name).prepare(cal)
+        return keep_name(measured, names, cal, decided.pop(), features=True)
+    return _kept(measured, names, cal, _refined(measured, state, near, cal))
 
 
 def predicted_angles(

@@ -61,7 +61,7 @@ def accuracy_rows(cache: Path, protocols: list[str], methods: list[tuple[str, st
     (held-out training grasps and test grasps alike) with that engine's hand calibration, as
     ``--hand-calibration`` has it read a hand's (the shipped coefficients for the others)."""
     from tactile_bullet.experiments.benchmark import _scored
-    from tactile_bullet.learn.doubt import calibrate_margin, cross_check_names
+    from tactile_bullet.learn.doubt import calibrate_margin, cross_check_accepts
     from tactile_bullet.perception.shape_model import use_calibration
 
     def hand_of(recs: list):
@@ -117,7 +117,7 @@ def accuracy_rows(cache: Path, protocols: list[str], methods: list[tuple[str, st
                             if key not in seconds_of:
                                 classes = sorted(str(c) for c in model.classes_)
                                 with use_calibration(hand_of(test)):
-                                    seconds_of[key] = cross_check_names(test, classes)
+                                    seconds_of[key] = cross_check_accepts(test, classes)
                             second = seconds_of[key]
                         pred, ambiguous = _scored(model, x_test, y_test, calibration, second)
                     rows.append({"protocol": name, "level": level.name, "descriptor": desc,

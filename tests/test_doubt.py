@@ -115,7 +115,8 @@ def test_the_second_opinion_takes_its_share_of_the_false_alarm_budget_first(
 ):
     train, _ = synthetic_split
     truth = np.array([r.shape for r in train])
-    monkeypatch.setattr(doubt, "cross_check_names", lambda recs, classes: truth[: len(recs)])
+    monkeypatch.setattr(doubt, "cross_check_accepts",
+                        lambda recs, classes: [(t,) for t in truth[: len(recs)]])  # fmt: skip
     svm = workflow.train(train, "signature", "svm")
     assert svm.info["doubt"]["cross_check"] == "shape-fit"
     names, proba = svm.predict_with_proba(train[:2])
@@ -130,7 +131,8 @@ def test_the_second_opinion_takes_its_share_of_the_false_alarm_budget_first(
     # no answer on its own, and the model file says how often the second opinion contradicts
     bad = truth.copy()
     bad[::3] = np.where(bad[::3] == "cone", "sphere", "cone")
-    monkeypatch.setattr(doubt, "cross_check_names", lambda recs, classes: bad[: len(recs)])
+    monkeypatch.setattr(doubt, "cross_check_accepts",
+                        lambda recs, classes: [(b,) for b in bad[: len(recs)]])  # fmt: skip
     svm = workflow.train(train, "signature", "svm")
     assert svm.info["doubt"]["margin"] == -1.0
     assert svm.info["doubt"]["cross_check_contradicts"] > 0.2

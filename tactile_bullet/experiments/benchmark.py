@@ -186,7 +186,7 @@ def run_benchmark(
     """Run the benchmark (module doc); returns the ``benchmark.json`` document. ``quick``:
     True/False (the --quick flag) or a scale name of ``protocols.SCALES``; ``engine`` simulates
     the single-engine protocols' sets (the cross-engine ones use both)."""
-    from ..learn.doubt import calibrate_margin, cross_check_names
+    from ..learn.doubt import calibrate_margin, cross_check_accepts
     from ..learn.robust import augment
     from ..plugins import compatible, get_classifier, get_descriptor
     from .reports import write_json, write_text_atomic
@@ -270,7 +270,7 @@ def run_benchmark(
                         if thresholds[key]["cross_check"] is not None:
                             if seconds is None:  # the shape fit's answers, read once a level
                                 classes = sorted(str(c) for c in fitted[key].classes_)
-                                seconds = cross_check_names(test, classes)
+                                seconds = cross_check_accepts(test, classes)
                             second = seconds
                         pred, doubt = _scored(fitted[key], x_test, y_test, thresholds[key],
                                               second)  # fmt: skip

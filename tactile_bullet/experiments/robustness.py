@@ -151,14 +151,15 @@ class _Fitted:
     axis: Any = None
 
 
-def _shape_fit_names(records, cache: dict[int, str], classes) -> np.ndarray:
-    """The shape fit's answer for each record, each read once per run (keyed by identity)."""
-    from ..learn.doubt import cross_check_names
+def _shape_fit_accepts(records, cache: dict[int, tuple], classes) -> list[tuple[str, ...]]:
+    """The families the shape fit accepts for each record, each read once per run (keyed by
+    identity; ``learn/doubt.cross_check_accepts``)."""
+    from ..learn.doubt import cross_check_accepts
 
     todo = [r for r in records if id(r) not in cache]
-    for r, name in zip(todo, cross_check_names(todo, classes), strict=True):
-        cache[id(r)] = name
-    return np.array([cache[id(r)] for r in records], dtype=object).astype(str)
+    for r, found in zip(todo, cross_check_accepts(todo, classes), strict=True):
+        cache[id(r)] = found
+    return [cache[id(r)] for r in records]
 
 
 def score_matrix(
@@ -213,7 +214,7 @@ def score_matrix(
             m = margins(proba, np.array([classes.index(p) for p in pred]))[0]
             flags = flagged(m, fitted.calibration.get("margin"))
             if fitted.calibration.get("cross_check") is not None:
-                flags |= cross_flags(pred, _shape_fit_names(records, fit_cache, classes))
+                flags |= cross_flags(pred, _shape_fit_accepts(records, fit_cache, classes))
             unknown = fitted.novelty.unknown(xt) if fitted.novelty is not None else \
                 np.zeros(len(xt), bool)  # fmt: skip
             if fitted.axis is not None:  # contacts that fit no family's solid or profile
@@ -253,7 +254,7 @@ def _fit(cand: Candidate, x: np.ndarray, y: np.ndarray, train, seed: int,
     else:
         calibration = calibrate_margin(lambda: get_classifier(cand.classifier), x, y,
                                        seed=seed, records=train, classifier=cand.classifier,
-                                       names=lambda recs, cls: _shape_fit_names(
+                                       accepts=lambda recs, cls: _shape_fit_accepts(
                                            recs, fit_cache, cls), groups=groups)  # fmt: skip
     try:
         novelty = Novelty.fit(x, y, seed=seed, groups=calibration_groups(train, groups=groups),

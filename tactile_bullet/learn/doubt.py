@@ -68,6 +68,14 @@ def cross_check_applies(classes: Sequence[str], classifier: str) -> bool:
     return classifier != CROSS_CHECK and all(str(c) in known for c in classes)
 
 
+CROSS_CHECK_TOLERANCE = 0.0
+"""Fit score within which of the shape fit's best a family still counts as the fit's answer:
+a model's answer the fit scores that close to its own best is not contradicted. The scores
+are penalised soft-L1 sums of squared residuals in units of each angle's spread, and the
+shape-fit classifier's probabilities go as exp(-score), so 1.0 would be two families within a
+factor e. Zero: only the fit's best counts, as before. Declared before the sixteenth replicate
+(docs/robustness.md)."""
+
 OWN_HAND_COEFFICIENTS = True
 """The cross-check reads a grasp of our own MuJoCo hand with that hand's coefficients
 (``realhand.hand_calibration.record_calibration``), not Bullet's; judged on the tenth replicate
@@ -75,27 +83,56 @@ OWN_HAND_COEFFICIENTS = True
 
 
 def cross_check_names(records: Sequence, classes: Sequence[str]) -> np.ndarray:
-    """The shape fit's answer among ``classes`` for each record ('' where it cannot read one),
-    each read as the coefficients in force were fitted (:func:`.robust.angles_for_shape_fit`),
-    a grasp of our own MuJoCo hand with that hand's coefficients where no hand calibration is
-    in force (:data:`OWN_HAND_COEFFICIENTS`)."""
+    """The shape fit's answer among ``classes`` for each record ('' where it cannot read one)
+    (the first of :func:`cross_check_accepts`)."""
+    found = [a[0] if a else "" for a in cross_check_accepts(records, classes)]
+    return np.array(found, dtype=object).astype(str)
+
+
+def cross_check_accepts(records: Sequence, classes: Sequence[str]) -> list[tuple[str, ...]]:
+    """The families among ``classes`` the shape fit accepts for each record: its answer first,
+    then any it scores within :data:`CROSS_CHECK_TOLERANCE` of it (``()`` where it cannot read
+    one). Each record is read as the coefficients in force were fitted
+    (:func:`.robust.angles_for_shape_fit`), a grasp of our own MuJoCo hand with that hand's
+    coefficients where no hand calibration is in force (:data:`OWN_HAND_COEFFICIENTS`)."""
     from ..realhand.hand_calibration import record_calibration
 
     groups: dict[int, tuple] = {}  # one batch of fits per set of coefficients
     for i, rec in enumerate(records):
         cal = record_calibration(rec) if OWN_HAND_COEFFICIENTS else None
         groups.setdefault(id(cal), (cal, []))[1].append(i)
-    out = np.full(len(records), "", dtype=object)
+    out: list[tuple[str, ...]] = [()] * len(records)
     for cal, index in groups.values():
-        out[index] = _cross_check_batch([records[i] for i in index], classes, cal)
-    return out.astype(str)
+        for i, found in zip(index, _cross_check_batch([records[i] for i in index], classes, cal),
+                            strict=True):  # fmt: skip
+            out[i] = found
+    return out
 
 
-def _cross_check_batch(records: Sequence, classes: Sequence[str], calibration) -> np.ndarray:
-    """:func:`cross_check_names` of records read with one set of coefficients (None: those
+def seconding(names: Sequence[str], accepted: Sequence[tuple[str, ...]]) -> list[str]:
+    """The second opinion each answer gets: the answer itself where the shape fit accepts it
+    (:func:`cross_check_accepts`), else the fit's own answer ('' where it has none)."""
+    return [str(n) if str(n) in a else (a[0] if a else "")
+            for n, a in zip(names, accepted, strict=True)]  # fmt: skip
+
+
+def _accepted(found) -> tuple[str, ...]:
+    """The families one fit accepts: a family the grid alone decided (every other scored more
+    than the search's refining margin above it, far beyond the tolerance), or the whole fit's
+    best and the families within :data:`CROSS_CHECK_TOLERANCE` of its score."""
+    if isinstance(found, str):
+        return (found,)
+    best = found.fits[found.shape].score
+    near = sorted((f.score, name) for name, f in found.fits.items()
+                  if name != found.shape and f.score <= best + CROSS_CHECK_TOLERANCE)  # fmt: skip
+    return (found.shape, *(name for _, name in near))
+
+
+def _cross_check_batch(records: Sequence, classes: Sequence[str], calibration) -> list:
+    """:func:`cross_check_accepts` of records read with one set of coefficients (None: those
     in force)."""
     from ..errors import UsageError
-    from ..perception.fit_batch import fit_names
+    from ..perception.fit_batch import fit_answers
     from ..perception.shape_model import use_own
     from .robust import angles_for_shape_fit
 
@@ -108,11 +145,12 @@ def _cross_check_batch(records: Sequence, classes: Sequence[str], calibration) -
                 readable.append(i)
             except UsageError:  # no angles to read: no second opinion
                 pass
-        # each grasp's answer is kept: asked again (another fold), it is not redone; only the
-        # family is read, so a fit's sizes are computed only where the grid leaves it open
-        found = fit_names(angles, families, desc="shape fit (second opinion)")
-    out = np.full(len(records), "", dtype=object)
-    out[readable] = found
+        # each grasp's answer is kept: asked again (another fold), it is not redone; a fit's
+        # sizes are computed only where the grid leaves the family open
+        found = fit_answers(angles, families, desc="shape fit (second opinion)")
+    out: list[tuple[str, ...]] = [()] * len(records)
+    for i, fit in zip(readable, found, strict=True):
+        out[i] = _accepted(fit)
     return out
 
 
@@ -234,14 +272,15 @@ def calibrate_margin(
     seed: int = 0,
     records: Sequence | None = None,
     classifier: str = "",
-    names: Callable[[Sequence, Sequence[str]], np.ndarray] | None = None,
+    accepts: Callable[[Sequence, Sequence[str]], list] | None = None,
     groups: np.ndarray | None = None,
 ) -> dict[str, Any]:
     """The model file's ``info["doubt"]``: ``margin`` (the threshold, None when it could not
     be calibrated, with ``reason``), ``cross_check`` (``"shape-fit"`` or None: given the
     training ``records`` and a model the shape fit can second), the held-out figures it was
-    set on, and how. ``names(records, classes)`` reads the shape fit's answers (default
-    :func:`cross_check_names`; a caller that has read them already passes its cache)."""
+    set on, and how. ``accepts(records, classes)`` reads the families the shape fit accepts
+    (default :func:`cross_check_accepts`; a caller that has read them already passes its
+    cache)."""
     doc: dict[str, Any] = {"false_alarm": float(false_alarm), "folds": int(folds),
                            "cross_check": None}  # fmt: skip
     if classifier == CROSS_CHECK and len(y) > TRAINING_FREE_SAMPLES:
@@ -260,9 +299,10 @@ def calibrate_margin(
     if records is not None and cross_check_applies(sorted(set(y)), classifier):
         if len(keep) > CROSS_CHECK_SAMPLES:
             keep = np.sort(np.random.default_rng(seed).choice(len(y), CROSS_CHECK_SAMPLES, False))
-        other = (names or cross_check_names)([records[i] for i in keep], sorted(set(y)))
+        found = (accepts or cross_check_accepts)([records[i] for i in keep], sorted(set(y)))
         # a right held-out answer is the true label: the cross-check contradicts it where it
-        # names another shape (or none)
+        # does not accept it (or reads no shape)
+        other = np.array(seconding(y[keep], found), dtype=object).astype(str)
         seconded[keep] = (other != y[keep]) & right[keep]
         doc["cross_check"] = CROSS_CHECK
     m, right, seconded = m[keep], right[keep], seconded[keep]
@@ -419,11 +459,11 @@ def batch_warning(flagged: int, answers: int) -> str | None:
     )
 
 
-def cross_flags(names, seconds) -> np.ndarray:
-    """Which answers the cross-check flags (batched :func:`answer_doubt`'s second rule)."""
-    names = np.asarray(names).astype(str)
-    seconds = np.asarray(seconds).astype(str)
-    return (seconds != "") & (seconds != names)
+def cross_flags(names, accepted: Sequence[tuple[str, ...]]) -> np.ndarray:
+    """Which answers the cross-check flags (batched :func:`answer_doubt`'s second rule), from
+    the families the shape fit accepts for each (:func:`cross_check_accepts`)."""
+    seconds = np.array(seconding([str(n) for n in names], accepted), dtype=object).astype(str)
+    return (seconds != "") & (seconds != np.asarray(names).astype(str))
 
 
 def model_cross_check(info: dict) -> bool:
@@ -456,7 +496,7 @@ def doubts(
     if opinion == KNOWN_CHECK:
         others = list(model.known.nearest(records))
     elif opinion == CROSS_CHECK:
-        others = list(cross_check_names(records, classes))
+        others = seconding(names, cross_check_accepts(records, classes))
     novelty = getattr(model, "novelty", None)
     scores: Sequence[float | None] = [None] * len(names)
     if novelty is not None and len(records):
@@ -525,7 +565,7 @@ def pair_doubt(
     if cross_check_applies(classes, classifier):
         cache = {} if cache is None else cache
         if "seconds" not in cache:
-            cache["seconds"] = cross_check_names(test_records, classes)
+            cache["seconds"] = cross_check_accepts(test_records, classes)
         seconds = cache["seconds"]
     calibration = calibrate_margin(
         lambda: get_classifier(classifier), x_train, y_train,

@@ -140,6 +140,19 @@ def fit_names(
     return [f if isinstance(f, str) else f.shape for f in found]
 
 
+def fit_answers(
+    angles: Sequence,
+    families: Sequence[str],
+    calibration: Calibration | None = None,
+    desc: str = "shape fits",
+    workers: int | None = None,
+) -> list[str | ShapeFit]:
+    """What :func:`fit_names` reads before it keeps the names alone: the family where the grid
+    decides it, else the whole fit (its every family's score: the cross-check's tolerance,
+    ``learn/doubt.CROSS_CHECK_TOLERANCE``, reads them)."""
+    return _batch(angles, families, calibration, desc, workers, cached_answer, name_or_fit)
+
+
 def _keep(features, names, cal, found):
     """Keep a worker's answer in this process's caches, as computing it here would have."""
     if isinstance(found, str):

@@ -6,8 +6,9 @@ An answer is flagged where it is ``ambiguous`` or ``unknown`` (as the matrix cou
 ways read the same shape fits (each grasp fitted once); only which of the fit's families count
 as its answer differs. Prints, per column, wrong and right answers flagged each way, then the
 rule declared before the sixteenth replicate (docs/robustness.md): (a) right answers flagged,
-summed over the in-family columns, fall; (b) wrong answers flagged, summed, fall by at most 2;
-(c) no fewer columns flag at least 80% of their wrong answers at most 5% of their right ones.
+summed over the in-family columns, fall by at least 10; (b) wrong answers flagged, summed, fall
+by at most 3; (c) no fewer columns flag at least 80% of their wrong answers at most 5% of their
+right ones.
 
     python benchmarks/cross_check_tolerance.py --cache OUT/data --replicate 16 --tolerance 1.0
 """
@@ -73,9 +74,10 @@ def main(argv=None) -> int:
     (old_w, old_r), (new_w, new_r) = totals.values()
     old_m, new_m = met.values()
     checks = [
-        (new_r < old_r, f"(a) right answers flagged, summed: {old_r} -> {new_r} (must fall)"),
-        (old_w - new_w <= 2, f"(b) wrong answers flagged, summed: {old_w} -> {new_w} "
-                             "(fall by at most 2)"),
+        (old_r - new_r >= 10, f"(a) right answers flagged, summed: {old_r} -> {new_r} "
+                              "(fall by at least 10)"),
+        (old_w - new_w <= 3, f"(b) wrong answers flagged, summed: {old_w} -> {new_w} "
+                             "(fall by at most 3)"),
         (new_m >= old_m, f"(c) columns meeting the target: {old_m} -> {new_m} (no fewer)"),
     ]  # fmt: skip
     print("\n".join(text for _, text in checks))

@@ -245,3 +245,29 @@ def test_an_answer_its_contacts_renamed_is_ambiguous_whatever_the_cross_check_sa
         assert doc["ambiguous"] == ["torus", "sphere"] and doc["renamed_from"] == "sphere"
     sure = answer_doubt(classes, "sphere", proba, -1.0, second_opinion="sphere")
     assert sure["ambiguous"] is None
+
+
+def _fit_of(scores: dict[str, float]):
+    """A whole shape fit with these families' scores (the rest of each fit is not read)."""
+    from tactile_bullet.perception.family_fit import FamilyFit, ShapeFit
+
+    fits = {name: FamilyFit(name, {}, (0.0, 0.0), 0.0, score, np.zeros((2, 4)))
+            for name, score in scores.items()}  # fmt: skip
+    return ShapeFit(min(scores, key=scores.get), fits)
+
+
+def test_the_cross_check_accepts_a_family_within_its_tolerance_and_no_other(monkeypatch):
+    """The README's 30 mm cylinder: the fit scores a turned cone 0.06 better. Within the
+    tolerance the cylinder answer stands uncontradicted; a family scored further off, or any
+    other where the grid alone decided the fit, is still a contradiction."""
+    near_tie = _fit_of({"cylinder": 13.93, "cone": 13.87, "sphere": 40.0, "torus": 14.9})
+    monkeypatch.setattr(doubt, "CROSS_CHECK_TOLERANCE", 1.0)
+    assert doubt._accepted(near_tie) == ("cone", "cylinder")  # the torus 1.03 off: not
+    assert doubt._accepted("sphere") == ("sphere",)
+    accepted = [doubt._accepted(near_tie)] * 3 + [("sphere",), ()]
+    answers = ["cylinder", "cone", "sphere", "cylinder", "cone"]
+    assert doubt.seconding(answers, accepted) == ["cylinder", "cone", "cone", "sphere", ""]
+    assert list(doubt.cross_flags(answers, accepted)) == [False, False, True, True, False]
+    monkeypatch.setattr(doubt, "CROSS_CHECK_TOLERANCE", 0.0)  # only the fit's best, as before
+    assert doubt._accepted(near_tie) == ("cone",)
+    assert list(doubt.cross_flags(["cylinder"], [doubt._accepted(near_tie)])) == [True]

@@ -1,14 +1,15 @@
-"""A change to the novelty rule against the rule as shipped, on a robustness matrix's cached
-grasps: ``--variant sizes-held-out``, the threshold calibrated with whole sizes held out
-(``novelty.HOLD_OUT_SIZES``, judged on the fourteenth replicate), or ``--variant midpoints``,
-the reference holding midpoints of training grasps of neighbouring sizes
-(``novelty.SIZE_MIDPOINTS``, judged on the fifteenth).
+"""A change to the novelty rule against the rule before it ("per grasp": held-out folds of
+whole grasps, no midpoints, as shipped until the fifteenth replicate), on a robustness
+matrix's cached grasps: ``--variant sizes-held-out``, the threshold calibrated with whole
+sizes held out (``novelty.HOLD_OUT_SIZES``, judged on the fourteenth replicate), or
+``--variant midpoints``, the reference holding midpoints of training grasps of neighbouring
+sizes (``novelty.SIZE_MIDPOINTS``, judged on the fifteenth and kept).
 
 Both novelties are fitted on the shipped default's training (read from the cache, as the
 matrix fits it) with the default's own features; every other part of the model is the shipped
 one, so only the novelty rule's verdicts differ. For each in-family column and each
 out-of-family set: grasps answered unknown both ways, and the wrong answers among them; then
-the grasps the shipped calibration calls unlike the training (novelty), by shape, engine and
+the grasps the per-grasp calibration calls unlike the training (novelty), by shape, engine and
 size, each with how far the nearest training grasp of that shape and engine lies in size (mm:
 the largest difference of one size parameter); then
 the rule declared before the fourteenth replicate (docs/robustness.md): (a) in-family grasps
@@ -43,7 +44,8 @@ VARIANTS = ("sizes-held-out", "midpoints")
 
 
 def thresholds(model, train, variant: str = "sizes-held-out") -> dict[str, N.Novelty]:
-    """The novelty fitted on ``train`` as shipped ("per grasp") and as ``variant`` has it."""
+    """The novelty fitted on ``train`` per grasp, without midpoints, and as ``variant`` has
+    it."""
     x = model.features(train)
     y = np.array([R.FAMILY_OBJECTS.get(r.shape, r.shape) for r in train])
     out = {"per grasp": N.Novelty.fit(x, y, groups=N.calibration_groups(train),

@@ -125,6 +125,20 @@ def fit_many(
     return _batch(angles, families, calibration, desc, workers, cached_fit, fit_shape)
 
 
+def fit_answers(
+    angles: Sequence,
+    families: Sequence[str],
+    calibration: Calibration | None = None,
+    desc: str = "shape fits",
+    workers: int | None = None,
+) -> list[str | ShapeFit]:
+    """For each (3, 4) final angles, in order, the family :func:`.shape_fit.fit_shape` names
+    where the grid decides it, else the whole fit (:func:`.shape_fit.name_or_fit`): a fit's
+    sizes only computed where the grid leaves the family open. What the doubt's cross-check
+    reads (the whole fits' scores too: ``learn/doubt.CROSS_CHECK_TOLERANCE``)."""
+    return _batch(angles, families, calibration, desc, workers, cached_answer, name_or_fit)
+
+
 def fit_names(
     angles: Sequence,
     families: Sequence[str],
@@ -133,24 +147,9 @@ def fit_names(
     workers: int | None = None,
 ) -> list[str]:
     """The family :func:`.shape_fit.fit_shape` names for each (3, 4) final angles, in order,
-    as :func:`fit_many` gives them, but with a fit's sizes only computed where the grid does
-    not decide the family (:func:`.shape_fit.name_or_fit`): what the doubt's cross-check
-    reads."""
-    found = _batch(angles, families, calibration, desc, workers, cached_answer, name_or_fit)
+    as :func:`fit_many` gives them (the names of :func:`fit_answers`)."""
+    found = fit_answers(angles, families, calibration, desc, workers)
     return [f if isinstance(f, str) else f.shape for f in found]
-
-
-def fit_answers(
-    angles: Sequence,
-    families: Sequence[str],
-    calibration: Calibration | None = None,
-    desc: str = "shape fits",
-    workers: int | None = None,
-) -> list[str | ShapeFit]:
-    """What :func:`fit_names` reads before it keeps the names alone: the family where the grid
-    decides it, else the whole fit (its every family's score: the cross-check's tolerance,
-    ``learn/doubt.CROSS_CHECK_TOLERANCE``, reads them)."""
-    return _batch(angles, families, calibration, desc, workers, cached_answer, name_or_fit)
 
 
 def _keep(features, names, cal, found):

@@ -28,20 +28,17 @@ from tactile_bullet.learn import doubt as D
 from tactile_bullet.learn.default import default_model
 
 
-def flags(model, records, tolerance: float) -> tuple[np.ndarray, np.ndarray]:
-    """(flagged, right) of the model's answers on ``records`` with the cross-check's
-    tolerance at ``tolerance``."""
-    names, proba, was = model.answers(records)
-    names = [str(n) for n in names]
+def flags(model, records, answers, tolerance: float) -> np.ndarray:
+    """Which of the model's ``answers`` on ``records`` (``Model.answers``' three lists) are
+    flagged with the cross-check's tolerance at ``tolerance``."""
+    names, proba, was = answers
     kept = D.CROSS_CHECK_TOLERANCE
     D.CROSS_CHECK_TOLERANCE = tolerance
     try:
         found = D.doubts(model, records, names, proba, renamed_from=was)
     finally:
         D.CROSS_CHECK_TOLERANCE = kept
-    truth = np.array([R.FAMILY_OBJECTS.get(r.shape, r.shape) for r in records])
-    flagged = np.array([d["ambiguous"] is not None or bool(d["unknown"]) for d in found])
-    return flagged, np.asarray(names) == truth
+    return np.array([d["ambiguous"] is not None or bool(d["unknown"]) for d in found])
 
 
 def main(argv=None) -> int:
@@ -60,9 +57,13 @@ def main(argv=None) -> int:
     for column in COLUMNS:
         sets = {s: read_records(cache / f"robust-{s}{tag}").records for s in column.sets}
         records = read_column(column, sets, args.seed)
+        names, proba, was = model.answers(records)
+        names = [str(n) for n in names]
+        truth = np.array([R.FAMILY_OBJECTS.get(r.shape, r.shape) for r in records])
+        right = np.asarray(names) == truth
         cells = []
-        for key, tol in ways.items():
-            flagged, right = flags(model, records, tol)
+        for key, tol in ways.items():  # the answers once; only the doubt differs
+            flagged = flags(model, records, (names, proba, was), tol)
             w, r = int((flagged & ~right).sum()), int((flagged & right).sum())
             totals[key][0] += w
             totals[key][1] += r

@@ -79,3 +79,20 @@ def timings(fn: Callable[[], object], repeat: int) -> list[float]:
         fn()
         out.append(time.perf_counter() - start)
     return out
+
+
+def matrix_set(cache: str | Path, name: str, replicate: int = 0) -> list:
+    """The records of a full-scale robustness matrix's set ``name`` (``test``, ``mujoco-test``,
+    ``out-of-family``, ...) in its cache folder, the run's ``--replicate`` draw."""
+    from tactile_bullet.datasets.dataset import read_records
+
+    tag = f"-r{replicate}" if replicate else ""
+    return read_records(Path(cache) / f"robust-{name}{tag}").records
+
+
+def matrix_column(cache: str | Path, column, replicate: int = 0, seed: int = 0) -> list:
+    """One column's test records (a ``robustness_sets.Column``) from a matrix's cache, read as
+    the matrix reads them (noise, a hand's CSV, J0 only)."""
+    from tactile_bullet.experiments.robustness_sets import read_column
+
+    return read_column(column, {s: matrix_set(cache, s, replicate) for s in column.sets}, seed)

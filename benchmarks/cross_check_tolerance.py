@@ -19,11 +19,10 @@ import argparse
 from pathlib import Path
 
 import numpy as np
-from _report import provenance  # first: this checkout ahead of an installed copy
+from _report import matrix_column, provenance  # first: this checkout ahead of an installed copy
 
-from tactile_bullet.datasets.dataset import read_records
 from tactile_bullet.experiments import robustness as R
-from tactile_bullet.experiments.robustness_sets import COLUMNS, read_column
+from tactile_bullet.experiments.robustness_sets import COLUMNS
 from tactile_bullet.learn import doubt as D
 from tactile_bullet.learn.default import default_model
 
@@ -49,14 +48,13 @@ def main(argv=None) -> int:
     ap.add_argument("--tolerance", type=float, default=1.0)
     args = ap.parse_args(argv)
     provenance(argv)
-    cache, tag = Path(args.cache), f"-r{args.replicate}" if args.replicate else ""
+    cache = Path(args.cache)
     model = default_model()
     ways = {"none": 0.0, f"tolerance {args.tolerance:g}": args.tolerance}
     totals = {k: [0, 0] for k in ways}  # wrong flagged, right flagged
     met = {k: 0 for k in ways}
     for column in COLUMNS:
-        sets = {s: read_records(cache / f"robust-{s}{tag}").records for s in column.sets}
-        records = read_column(column, sets, args.seed)
+        records = matrix_column(cache, column, args.replicate, args.seed)
         names, proba, was = model.answers(records)
         names = [str(n) for n in names]
         truth = np.array([R.FAMILY_OBJECTS.get(r.shape, r.shape) for r in records])

@@ -31,12 +31,11 @@ from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
-from _report import provenance  # first: this checkout ahead of an installed copy
+from _report import matrix_column, matrix_set, provenance  # first: this checkout ahead
 from unknown_by_rule import _answers
 
-from tactile_bullet.datasets.dataset import read_records
 from tactile_bullet.experiments import robustness as R
-from tactile_bullet.experiments.robustness_sets import COLUMNS, OUT_OF_FAMILY_SETS, read_column
+from tactile_bullet.experiments.robustness_sets import COLUMNS, OUT_OF_FAMILY_SETS
 from tactile_bullet.learn import novelty as N
 from tactile_bullet.learn.default import default_meta, default_model
 
@@ -91,7 +90,7 @@ def main(argv=None) -> int:
     ap.add_argument("--variant", choices=VARIANTS, default=VARIANTS[0])
     args = ap.parse_args(argv)
     provenance(argv)
-    cache, tag = Path(args.cache), f"-r{args.replicate}" if args.replicate else ""
+    cache = Path(args.cache)
     model = default_model()
     train = R.training_records(cache, "full", default_meta()["training"])
     fitted = thresholds(model, train, args.variant)
@@ -102,7 +101,7 @@ def main(argv=None) -> int:
     totals = {k: [0, 0] for k in variants}  # in-family unknown, wrong answers unknown
     lost, lost_alone = {}, {}
     for name in OUT_OF_FAMILY_SETS:
-        records = read_records(cache / f"robust-{name}{tag}").records
+        records = matrix_set(cache, name, args.replicate)
         found = {k: sum(r is not None for r in _answers(m, records)[1]) for k, m in
                  variants.items()}  # fmt: skip
         features = model.features(records)
@@ -113,8 +112,7 @@ def main(argv=None) -> int:
               + ", ".join(f"{k} {v}" for k, v in found.items())
               + "; by the novelty rule alone: " + ", ".join(f"{k} {v}" for k, v in alone.items()))
     for column in COLUMNS:
-        sets = {s: read_records(cache / f"robust-{s}{tag}").records for s in column.sets}
-        records = read_column(column, sets, args.seed)
+        records = matrix_column(cache, column, args.replicate, args.seed)
         truths = np.array([R.FAMILY_OBJECTS.get(r.shape, r.shape) for r in records])
         cells = []
         for key, m in variants.items():

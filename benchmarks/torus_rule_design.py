@@ -21,11 +21,10 @@ from collections import Counter
 from pathlib import Path
 
 import numpy as np
-from _report import provenance  # first: this checkout ahead of an installed copy
+from _report import matrix_column, matrix_set, provenance  # first: this checkout ahead
 
-from tactile_bullet.datasets.dataset import read_records
 from tactile_bullet.experiments import robustness as R
-from tactile_bullet.experiments.robustness_sets import COLUMNS, OUT_OF_FAMILY_SETS, read_column
+from tactile_bullet.experiments.robustness_sets import COLUMNS, OUT_OF_FAMILY_SETS
 from tactile_bullet.learn.default import default_meta, resolve_model
 from tactile_bullet.learn.doubt import NOT_PROFILE, doubts
 from tactile_bullet.perception import contact_check
@@ -66,13 +65,12 @@ def main(argv=None) -> int:
     for run in args.runs.split(","):
         config = json.loads((Path(run) / "robustness.json").read_text())["config"]
         doc_rep = int(config.get("replicate", 0))
-        tag, cache = f"-r{doc_rep}" if doc_rep else "", Path(run) / "data"
-        sets = [(n, read_records(cache / f"robust-{n}{tag}").records, False)
+        cache = Path(run) / "data"
+        sets = [(n, matrix_set(cache, n, doc_rep), False)
                 for n in OUT_OF_FAMILY_SETS]  # fmt: skip
         for name in args.columns.split(","):
             column = table[name]
-            parts = {s: read_records(cache / f"robust-{s}{tag}").records for s in column.sets}
-            sets.append((name, read_column(column, parts, 0), True))
+            sets.append((name, matrix_column(cache, column, doc_rep), True))
         margins: dict[bool, list[float]] = {True: [], False: []}
         for name, records, family in sets:
             names, proba, _ = model.answers(records)

@@ -31,7 +31,7 @@ from collections import Counter, defaultdict
 from pathlib import Path
 
 import numpy as np
-from _report import provenance  # first: this checkout ahead of an installed copy
+from _report import matrix_column, matrix_set, provenance  # first: this checkout ahead
 
 from tactile_bullet.datasets.dataset import read_records
 from tactile_bullet.experiments.robustness_sets import (
@@ -39,7 +39,6 @@ from tactile_bullet.experiments.robustness_sets import (
     FAMILY_OBJECTS,
     NOISE,
     OUT_OF_FAMILY_SETS,
-    read_column,
 )
 from tactile_bullet.learn.default import resolve_model
 from tactile_bullet.learn.doubt import NOT_PROFILE, NOT_REVOLUTION, UNLIKE_TRAINING, doubts
@@ -89,14 +88,13 @@ def main(argv=None) -> int:
         return 0
     if not args.cache:
         ap.error("give --cache (a robustness matrix's data) or --data")
-    tag = f"-r{args.replicate}" if args.replicate else ""
     cache = Path(args.cache)
     if args.min_points is not None:
         model = _refitted(model, cache, args.min_points, args.training)
     from tactile_bullet.learn.perturb import perturb_all
 
     for name in OUT_OF_FAMILY_SETS:
-        simulated = read_records(cache / f"robust-{name}{tag}").records
+        simulated = matrix_set(cache, name, args.replicate)
         readings = [("", simulated)]
         if args.sensor:
             readings.append((" through the sensor model", perturb_all(simulated, NOISE, args.seed)))
@@ -111,9 +109,8 @@ def main(argv=None) -> int:
                                    for k in order))  # fmt: skip
     table = {c.name: c for c in COLUMNS}
     for name in args.columns.split(","):
-        column = table[name]
-        sets = {s: read_records(cache / f"robust-{s}{tag}").records for s in column.sets}
-        _breakdown(f"column {name}", model, read_column(column, sets, args.seed))
+        records = matrix_column(cache, table[name], args.replicate, args.seed)
+        _breakdown(f"column {name}", model, records)
     return 0
 
 

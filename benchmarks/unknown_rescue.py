@@ -19,14 +19,12 @@ import argparse
 from pathlib import Path
 
 import numpy as np
-from _report import provenance  # first: this checkout ahead of an installed copy
+from _report import matrix_column, matrix_set, provenance  # first: this checkout ahead
 
-from tactile_bullet.datasets.dataset import read_records
 from tactile_bullet.experiments.robustness_sets import (
     COLUMNS,
     FAMILY_OBJECTS,
     OUT_OF_FAMILY_SETS,
-    read_column,
 )
 from tactile_bullet.learn.default import resolve_model
 from tactile_bullet.learn.doubt import UNLIKE_TRAINING, doubts
@@ -73,16 +71,14 @@ def main(argv=None) -> int:
     provenance(argv)
     require = {r for r in args.require.split(",") if r}
     model = resolve_model(None)
-    tag = f"-r{args.replicate}" if args.replicate else ""
     cache = Path(args.cache)
     for name in OUT_OF_FAMILY_SETS:
-        records = read_records(cache / f"robust-{name}{tag}").records
+        records = matrix_set(cache, name, args.replicate)
         print(f"{name}: {judge(model, records, None, require)}", flush=True)
     table = {c.name: c for c in COLUMNS}
     for name in CONTACT_COLUMNS:
         column = table[name]
-        sets = {s: read_records(cache / f"robust-{s}{tag}").records for s in column.sets}
-        records = read_column(column, sets, 0)
+        records = matrix_column(cache, column, args.replicate)
         truths = [FAMILY_OBJECTS.get(r.shape, r.shape) for r in records]
         print(f"{name}: {judge(model, records, truths, require)}", flush=True)
     return 0

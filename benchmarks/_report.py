@@ -54,12 +54,24 @@ def command(argv: Sequence[str] | None = None) -> str:
     return shlex.join(["python", name, *argv[1:]])
 
 
+def versions() -> str:
+    """The engines', numpy's and Python's versions, as a dataset's manifest records them: an
+    engine's new release changes its physics and its speed, so a figure names the one it
+    was measured with (read from package metadata: no engine is imported)."""
+    from tactile_bullet.datasets.shards import software_versions
+
+    found = software_versions()
+    return ", ".join(f"{k} {found[k]}" for k in ("pybullet", "mujoco", "numpy", "python"))
+
+
 def provenance(argv: Sequence[str] | None = None) -> None:
-    """Print the command, the commit and the date (UTC), one line each, before the figures."""
+    """Print the command, the commit, the date (UTC) and the versions that shape the figures,
+    one line each, before the figures."""
     now = datetime.now(UTC).strftime("%Y-%m-%d %H:%M UTC")
     print(f"command: {command(argv)}")
     print(f"commit: {commit()}")
-    print(f"date: {now}", flush=True)
+    print(f"date: {now}")
+    print(f"versions: {versions()}", flush=True)
 
 
 def save_figure(fig, out: str | Path) -> None:

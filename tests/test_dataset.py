@@ -147,6 +147,26 @@ def test_out_holding_a_different_dataset_is_refused_and_left_alone(tmp_path):
     assert {p.name: p.read_bytes() for p in out.iterdir()} == before
 
 
+def test_resuming_under_another_engine_version_is_refused_before_any_grasp(tmp_path):
+    out = tmp_path / "ds"
+    generate(sweep(tmp_path, MANY), out, workers=0, shard_size=4, task_fn=fake_grasp)
+    manifest = json.loads((out / "manifest.json").read_text())
+    assert {"pybullet", "mujoco"} <= set(manifest["software"])  # the engines' physics
+    manifest["software"]["pybullet"] = "0.0.1"
+    (out / "manifest.json").write_text(json.dumps(manifest))
+    # complete: nothing would be simulated, so nothing mixes; the dataset is left as it is
+    generate(sweep(tmp_path, MANY), out, workers=0, shard_size=4, resume=True, task_fn=fake_grasp)
+    (out / "shard-00001.npz").unlink()  # a block to simulate again
+    before = {p.name: p.read_bytes() for p in out.iterdir()}
+    ran = []
+    with pytest.raises(UsageError, match="simulated with pybullet 0.0.1, this environment has"):
+        generate(sweep(tmp_path, MANY), out, workers=0, shard_size=4, resume=True,
+                 task_fn=lambda t: ran.append(t) or fake_grasp(t))  # fmt: skip
+    assert ran == []
+    after = {p.name: p.read_bytes() for p in out.iterdir()}
+    assert after.keys() == before.keys() and after["shard-00000.npz"] == before["shard-00000.npz"]
+
+
 def test_out_that_is_a_non_empty_folder_is_refused(tmp_path):
     (tmp_path / "ds").mkdir()
     (tmp_path / "ds" / "notes.txt").write_text("mine")

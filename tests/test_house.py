@@ -78,6 +78,8 @@ def test_provenance_prints_the_command_and_the_commit():
                          check=True).stdout.splitlines()  # fmt: skip
     assert out[0] == "command: python benchmarks/x.py --repeat 2"
     assert out[1].startswith("commit: ") and out[2].startswith("date: ")
+    # the engines' versions: a new MuJoCo or PyBullet release moves physics and speed
+    assert out[3].startswith("versions: pybullet ") and ", mujoco " in out[3]
 
 
 def test_converting_another_hand_is_a_command():

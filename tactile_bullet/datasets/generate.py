@@ -22,6 +22,7 @@ from ..errors import UsageError
 from .integrity import Problem, block_tasks, check_shards, read_manifest, shard_problem
 from .shards import (
     DEFAULT_SHARD_SIZE,
+    ENGINE_PACKAGES,
     FORMAT,
     LOCK,
     MANIFEST,
@@ -196,6 +197,7 @@ def generate(
             manifest, repaired = _open_out(out, sweep, seed, shard_size, len(tasks), resume)
             blocks_done = {s["block"] for s in manifest.data["shards"]}
             todo = [t for t in tasks if t.index // shard_size not in blocks_done]
+            _same_engines(out, manifest.data.get("software", {}), todo)
             task_fn = task_fn or executors.run_task
             if client is not None:
                 results = executors.run_dask(todo, client, task_fn)
@@ -218,6 +220,24 @@ def generate(
         "repaired": [p.as_dict() for p in repaired],
         "wall_time_s": time.perf_counter() - start,
     }
+
+
+def _same_engines(out: Path, recorded: Mapping[str, str], todo: Sequence) -> None:
+    """Refuse to add grasps to a dataset begun under another version of an engine they run
+    on: the shards would hold two simulators' physics under one name. A complete dataset
+    (nothing left to simulate) and an engine the manifest does not record pass."""
+    if not todo:
+        return
+    now = software_versions()
+    for engine in sorted({t.controller.engine for t in todo}):
+        package = ENGINE_PACKAGES.get(engine)
+        was = recorded.get(package) if package else None
+        if was is not None and was != now[package]:
+            raise UsageError(
+                f"{out} was simulated with {package} {was}, this environment has "
+                f"{now[package]}: resuming would mix two versions' physics in one dataset; "
+                f"generate it again in another --out, or install {package}=={was} to finish it"
+            )
 
 
 def _existing_shard_size(out: Path) -> int | None:

@@ -107,15 +107,23 @@ def _source(source: Path | bytes):
     return io.BytesIO(source) if isinstance(source, bytes) else source
 
 
+ENGINE_PACKAGES = {"bullet": "pybullet", "mujoco": "mujoco"}
+"""The package whose version is each built-in engine's physics: a dataset resumed under
+another version of it would hold grasps of two simulators (``generate`` refuses that)."""
+
+
 def software_versions() -> dict[str, str]:
+    """Versions of what shapes a dataset's grasps: this package, Python, the engines, numpy
+    and trimesh (``not installed`` for an engine that is not; read from the installed
+    packages' metadata, so no engine is imported)."""
     from importlib.metadata import PackageNotFoundError, version
 
     out = {"tactile_bullet": __version__, "python": sys.version.split()[0]}
-    for name in ("pybullet", "numpy", "trimesh"):
+    for name in ("pybullet", "mujoco", "numpy", "trimesh"):
         try:
             out[name] = version(name)
         except PackageNotFoundError:
-            out[name] = "unknown"
+            out[name] = "not installed"
     return out
 
 

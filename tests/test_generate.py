@@ -96,6 +96,28 @@ def test_a_dask_cluster_gives_the_same_records_as_a_local_run(small, tmp_path):
     assert all(x.equals(y) for x, y in zip(a, b, strict=True))
 
 
+def test_a_cluster_worker_with_another_engine_version_is_refused():
+    class Client:  # what generate asks of a dask Client: each worker's versions, closing
+        closed = False
+
+        def __init__(self, versions):
+            self.versions = versions
+
+        def run(self, fn):
+            return {"tcp://10.0.0.2:4001": self.versions}
+
+        def close(self):
+            self.closed = True
+
+    same = Client(executors._engine_versions())
+    executors.check_worker_engines(same)
+    assert not same.closed
+    other = Client({**executors._engine_versions(), "mujoco": "3.2.0"})
+    with pytest.raises(UsageError, match=r"worker tcp://10.0.0.2:4001 has mujoco 3.2.0, this"):
+        executors.check_worker_engines(other)
+    assert other.closed
+
+
 def test_unreachable_cluster_is_a_clear_error(small, tmp_path):
     pytest.importorskip("distributed")
     with socket.socket() as s:  # a free loopback port nobody listens on

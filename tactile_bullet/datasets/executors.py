@@ -254,6 +254,34 @@ def connect_dask(address: str, timeout: float = 5.0):
         raise UsageError(f"cannot reach the Dask scheduler at {address} ({exc})") from None
 
 
+def _engine_versions() -> dict[str, str]:
+    from .shards import ENGINE_PACKAGES, software_versions
+
+    found = software_versions()
+    return {p: found[p] for p in ENGINE_PACKAGES.values()}
+
+
+def check_worker_engines(client) -> None:
+    """A UsageError (the client closed) where a Dask worker runs another version of PyBullet
+    or MuJoCo than this machine, whose versions the manifest records: its grasps would be
+    another simulator's under the same dataset. Checked before anything is written."""
+    here = _engine_versions()
+    try:
+        found = client.run(_engine_versions)
+    except Exception as exc:  # noqa: BLE001 - any worker-side failure: say which, stop
+        client.close()
+        first = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
+        raise UsageError(f"cannot read the Dask workers' engine versions ({first})") from None
+    for worker, versions in sorted(found.items()):
+        for package, version in sorted(versions.items()):
+            if version != here.get(package):
+                client.close()
+                raise UsageError(
+                    f"Dask worker {worker} has {package} {version}, this machine "
+                    f"{here.get(package)}: install the same engine versions on every machine"
+                )
+
+
 def run_dask(
     tasks: Sequence[GraspTask], client, task_fn: Callable = run_task
 ) -> Iterator[tuple[int, Outcome]]:

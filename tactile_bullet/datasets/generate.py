@@ -191,6 +191,8 @@ def generate(
     out = Path(out)
     tasks = sweep.tasks(seed)
     client = executors.connect_dask(cluster) if cluster else None
+    if client is not None:
+        executors.check_worker_engines(client)
     try:
         _make_out(out)
         with _writer_lock(out):

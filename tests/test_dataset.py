@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 from synthetic import SMALL_SWEEP as SMALL
 
-from tactile_bullet.datasets.dataset import open_dataset
+from tactile_bullet.datasets.dataset import open_dataset, read_records, verify
 from tactile_bullet.datasets.generate import generate
 from tactile_bullet.datasets.integrity import DamagedDataset
 from tactile_bullet.datasets.sweeps import Sweep
@@ -165,6 +165,31 @@ def test_resuming_under_another_engine_version_is_refused_before_any_grasp(tmp_p
     assert ran == []
     after = {p.name: p.read_bytes() for p in out.iterdir()}
     assert after.keys() == before.keys() and after["shard-00000.npz"] == before["shard-00000.npz"]
+
+
+def test_resume_where_there_is_no_dataset_is_refused_and_writes_nothing(tmp_path):
+    # a mistyped --out with --resume would otherwise start the whole run afresh
+    with pytest.raises(UsageError, match="--resume: .*typo holds no dataset to resume"):
+        generate(sweep(tmp_path), tmp_path / "typo", workers=0, resume=True, task_fn=fake_grasp)
+    assert not (tmp_path / "typo").exists()
+
+
+def test_a_resume_that_differs_in_engine_names_the_engine(tmp_path):
+    out = tmp_path / "ds"
+    generate(sweep(tmp_path), out, workers=0, shard_size=2, task_fn=fake_grasp)
+    mujoco = sweep(tmp_path, SMALL.replace('name = "small"', 'name = "small"\nengine = "mujoco"'),
+                   "m.toml")  # fmt: skip
+    with pytest.raises(UsageError, match=r"sweep 'small': engine bullet there, mujoco here"):
+        generate(mujoco, out, workers=0, shard_size=2, resume=True, task_fn=fake_grasp)
+
+
+def test_shards_without_their_manifest_are_named_as_such(tmp_path):
+    out = tmp_path / "ds"
+    generate(sweep(tmp_path, MANY), out, workers=0, shard_size=4, task_fn=fake_grasp)
+    (out / "manifest.json").unlink()
+    for read in (lambda: read_records(out), lambda: verify(out)):
+        with pytest.raises(UsageError, match=r"shards \(shard-00000.npz, ...\) but no manifest"):
+            read()
 
 
 def test_out_that_is_a_non_empty_folder_is_refused(tmp_path):

@@ -50,7 +50,14 @@ from .integrity import (
     read_manifest,
     read_shard_bytes,
 )
-from .shards import DECODE_ERRORS, MANIFEST, NOT_GENERATED, decode_shard, decode_shard_metadata
+from .shards import (
+    DECODE_ERRORS,
+    MANIFEST,
+    NOT_GENERATED,
+    SHARD_FILE,
+    decode_shard,
+    decode_shard_metadata,
+)
 
 # --- reading --------------------------------------------------------------------------------
 
@@ -291,6 +298,12 @@ def read_records(
         loaded = LoadedRecords(list(dataset.records(full)), dataset.problems)
     else:
         files = [path] if path.is_file() else sorted(path.glob("*.npz"))
+        shards = [f.name for f in files if SHARD_FILE.fullmatch(f.name)]
+        if shards:  # a dataset that lost its manifest, not a folder of records
+            raise UsageError(
+                f"{path} holds dataset shards ({shards[0]}, ...) but no {MANIFEST}: without it "
+                "they cannot be checked or read; restore it, or generate the dataset again"
+            )
         loaded = LoadedRecords([])
         for file in files:
             if not file.is_file():  # a folder, or a FIFO that would block the read forever

@@ -14,11 +14,12 @@ import os
 import sys
 import time
 from collections.abc import Callable, Iterator, Mapping, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, fields
 from pathlib import Path
 from typing import Any
 
 from ..errors import UsageError
+from ..records import ControllerSettings
 from .integrity import Problem, block_tasks, check_shards, read_manifest, shard_problem
 from .shards import (
     DEFAULT_SHARD_SIZE,
@@ -64,7 +65,7 @@ def _open_out(
         _same_hand(out, existing, config, data.get("hand_model_files"))
         if existing != config:
             differs = [k for k in config if existing.get(k) != config[k]] or ["config"]
-            shown = {"sweep": f"sweep {existing.get('sweep', {}).get('name')!r}"}
+            shown = {"sweep": _sweep_difference(existing.get("sweep", {}), config["sweep"])}
             detail = ", ".join(shown.get(k, f"{k.replace('_', '-')} {existing.get(k)}")
                                for k in differs)  # fmt: skip
             raise UsageError(f"{out} holds a different dataset ({detail}); choose another --out")
@@ -189,6 +190,8 @@ def generate(
         raise UsageError(f"--shard-size must be >= 1, got {shard_size}")
     start = time.perf_counter()
     out = Path(out)
+    if resume and not (out / MANIFEST).exists():  # a mistyped --out: not a whole new run
+        raise UsageError(f"--resume: {out} holds no dataset to resume (no {MANIFEST})")
     tasks = sweep.tasks(seed)
     client = executors.connect_dask(cluster) if cluster else None
     if client is not None:
@@ -222,6 +225,33 @@ def generate(
         "repaired": [p.as_dict() for p in repaired],
         "wall_time_s": time.perf_counter() - start,
     }
+
+
+_DEFAULT_CONTROLLER = {f.name: f.default for f in fields(ControllerSettings)}
+"""What a sweep's ``[controller]`` table leaves out (its saved form drops defaults)."""
+
+
+def _sweep_difference(old: Mapping[str, Any], new: Mapping[str, Any]) -> str:
+    """How the sweep a dataset holds differs from the one asked for, for the refusal: its
+    name, and where the names agree, what else differs (the table and key, the dataset's
+    value first: an engine or a controller setting given on the command line)."""
+    name = f"sweep {old.get('name')!r}"
+    if old.get("name") != new.get("name"):
+        return name
+    parts = []
+    for key in sorted(set(old) | set(new), key=str):
+        a, b = old.get(key), new.get(key)
+        if a == b:
+            continue
+        if isinstance(a, Mapping) and isinstance(b, Mapping):
+            defaults = _DEFAULT_CONTROLLER if key == "controller" else {}
+            for sub in sorted(set(a) | set(b), key=str):
+                if a.get(sub) != b.get(sub):
+                    was, now = (t.get(sub, defaults.get(sub, "default")) for t in (a, b))
+                    parts.append(f"{sub} {was} there, {now} here")
+        else:
+            parts.append(f"its {key}")
+    return f"{name}: {'; '.join(parts)}" if parts else name
 
 
 def _same_engines(out: Path, recorded: Mapping[str, str], todo: Sequence) -> None:

@@ -127,6 +127,8 @@ def software_versions() -> dict[str, str]:
     return out
 
 
+SHARD_FILE = re.compile(r"shard-\d{5}\.npz")
+"""A shard's file name (:func:`shard_name`)."""
 _OWN_FILE = re.compile(r"shard-\d{5}\.npz|\.shard-\d{5}\..*\.tmp\.npz|\.manifest\..*\.tmp\.json")
 """Files a dataset folder holds besides its manifest and lock: shards, and the temporary
 files of a killed writer."""

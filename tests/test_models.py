@@ -216,6 +216,20 @@ def test_a_model_whose_descriptor_is_not_installed_is_refused(saved, tmp_path):
         load_model(_rewrite(saved, tmp_path, rename))
 
 
+def test_a_model_whose_descriptor_gives_rows_its_classifier_cannot_read_is_refused(
+    svm_file, tmp_path
+):
+    # its metadata edited: the signature's points changed, the fitted svm left as it was
+    def more_points(members):
+        meta = json.loads(str(members["meta"]))
+        _set_meta(members, descriptor={**meta["descriptor"], "params": {
+            **meta["descriptor"]["params"], "signature.points": 20}})  # fmt: skip
+
+    with pytest.raises(UsageError, match=r"its descriptor 'signature\+contact-normals' gives "
+                                         r"\d+ features, its classifier was fitted on \d+"):
+        load_model(_rewrite(svm_file, tmp_path, more_points))
+
+
 def test_a_newer_format_is_refused_with_both_versions(saved, tmp_path):
     path = _rewrite(saved, tmp_path, lambda m: _set_meta(m, format_version=99))
     with pytest.raises(UsageError, match="99") as info:

@@ -345,7 +345,7 @@ def load_model(path: str | Path) -> Model:
     descriptor, descriptor_params = _field(meta, "descriptor", path)
     classifier, classifier_params = _field(meta, "classifier", path)
     try:
-        plugins.get_descriptor(descriptor, **descriptor_params)
+        described = plugins.get_descriptor(descriptor, **descriptor_params)
     except UsageError as exc:
         raise UsageError(f"{path} needs descriptor {descriptor!r}: {exc}") from None
     encoding = meta.get("estimator_encoding")
@@ -371,6 +371,7 @@ def load_model(path: str | Path) -> Model:
     classes = [str(c) for c in getattr(estimator, "classes_", [])]
     if classes != [str(c) for c in meta.get("classes", [])]:
         raise UsageError(f"{path} is not a valid model: its classes do not match its metadata")
+    _check_width(path, descriptor, described, estimator)
     info = meta.get("info", {})
     known = _load_known(path, meta, contents, classes)
     novelty = _load_novelty(path, meta, contents)
@@ -388,6 +389,25 @@ def load_model(path: str | Path) -> Model:
         software_version=str(meta.get("software_version", "unknown")),
         format_version=MODEL_FORMAT_VERSION,
     )
+
+
+def _check_width(path: Path, descriptor: str, described: Any, estimator: Any) -> None:
+    """Refuse a model whose descriptor, with its saved parameters, gives rows of another
+    width than its estimator was fitted on (metadata edited or mixed from two files): every
+    answer would fail. Descriptors or estimators that do not say their width pass."""
+    names = getattr(described, "feature_names", None)
+    fitted = getattr(estimator, "n_features_in_", None)
+    if names is None or fitted is None:
+        return
+    try:
+        width = len(names())
+    except Exception:  # noqa: BLE001 - a plugin's own: the width is then unknown, not wrong
+        return
+    if width != int(fitted):
+        raise UsageError(
+            f"{path} is not a valid model: its descriptor {descriptor!r} gives {width} "
+            f"features, its classifier was fitted on {int(fitted)}"
+        )
 
 
 def _load_known(path: Path, meta: dict, contents: dict[str, np.ndarray], classes: list[str]):

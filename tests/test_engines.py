@@ -534,9 +534,13 @@ def test_convert_hand_refuses_bad_input_in_one_line_before_any_work(tmp_path, ca
     taken = tmp_path / "taken.xml"
     taken.write_text("keep me")
     (tmp_path / "robot.xml").write_text("<robot/>")
+    (tmp_path / "ball.xml").write_text(  # MJCF, but no hand: refused, not written
+        '<mujoco><worldbody><body name="ball"><geom size="0.1"/></body></worldbody></mujoco>')
     cases = [
         ([str(tmp_path / "missing.xml")], "does not exist"),
         ([str(tmp_path / "robot.xml")], "not an MJCF model"),
+        ([str(tmp_path / "ball.xml")], "is not a Shadow hand --hand-model can drive: it has no "
+                                       "joint FFJ4 (nor 21 more)"),
         ([str(menagerie), "--out", str(taken)], "already exists; add --force"),
         ([str(menagerie), "--out", str(tmp_path / "hand.txt")], "must end in .xml"),
         ([str(tmp_path)], "shared.xml does not exist"),

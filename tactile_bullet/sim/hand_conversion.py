@@ -133,7 +133,29 @@ def convert_hand(source: str | os.PathLike, layout: str = "auto") -> Conversion:
         ET.indent(tree)
     else:
         tree, changes = collision_copy(source)
+        _check_names(tree, source)
     return Conversion(tree, layout, tuple(changes))
+
+
+def _check_names(tree: ET.ElementTree, source: Path) -> None:
+    """Refuse a file that is not a Shadow hand before anything is written (the Menagerie's
+    copy is not compiled here: its meshes resolve beside the source): every joint and
+    actuator ``--hand-model`` drives, and a palm, must be there by their Shadow names."""
+    from .engines.mujoco_hand import REQUIRED_ACTUATORS, REQUIRED_JOINTS, shadow_name
+
+    root = tree.getroot()
+    for kind, tag, wanted in (("joint", "joint", REQUIRED_JOINTS),
+                              ("actuator", None, REQUIRED_ACTUATORS)):  # fmt: skip
+        elements = root.iter(tag) if tag else (e for a in root.iter("actuator") for e in a)
+        have = {shadow_name(e.get("name"), kind) for e in elements}
+        missing = [n for n in wanted if n not in have]
+        if missing:
+            raise UsageError(
+                f"{source} is not a Shadow hand --hand-model can drive: it has no {kind} "
+                f"{missing[0]}{f' (nor {len(missing) - 1} more)' if len(missing) > 1 else ''}"
+            )
+    if "palm" not in {shadow_name(b.get("name"), "body") for b in root.iter("body")}:
+        raise UsageError(f"{source} is not a Shadow hand --hand-model can drive: no palm body")
 
 
 def write_hand(conversion: Conversion, out: str | os.PathLike) -> Path:

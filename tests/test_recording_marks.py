@@ -51,6 +51,40 @@ def test_shape_given_on_the_command_line_overrides_the_rows_labels(synthetic_spl
     assert main(["import", str(path), "--shape", "torus", "--out", str(tmp_path / "d")]) == 0
 
 
+def _remark(path, mark_of_row):
+    """Rewrite the ``grasp`` marker column: ``mark_of_row(grasp, row in grasp)``."""
+    rows = list(csv.reader(path.open()))
+    head, body = rows[0], rows[1:]
+    g = head.index("grasp")
+    seen: dict[int, int] = {}
+    for row in body:
+        k = int(row[g])
+        seen[k] = seen.get(k, -1) + 1
+        row[g] = str(mark_of_row(k, seen[k]))
+    with path.open("w", newline="") as fh:
+        csv.writer(fh).writerows([head, *body])
+    return path
+
+
+def test_a_grasp_mark_that_returns_after_another_grasp_is_refused(synthetic_split, tmp_path,
+                                                                  capsys):  # fmt: skip
+    from tactile_bullet.cli import main
+
+    _, test = synthetic_split
+    path = _csv_with_objects(test[:3], tmp_path / "session.csv", lambda k, row: "")
+    _remark(path, lambda k, row: 1 if k == 3 else k)  # 1, 2, 1: grasp 1 cannot resume
+    for command in (["identify", "--recording", str(path)],
+                    ["import", str(path), "--out", str(tmp_path / "d")]):  # fmt: skip
+        err = run_error(capsys, command)
+        assert "the marker's grasp 1 returns at data row" in err and "after grasp 2 began" in err
+    assert not (tmp_path / "d").exists()
+    # a mark that comes back after rows of 0 is a state (grasping or not): three grasps
+    path = _csv_with_objects(test[:3], tmp_path / "flags.csv", lambda k, row: "")
+    _remark(path, lambda k, row: 0 if row == 0 and k > 1 else 1)
+    assert main(["import", str(path), "--out", str(tmp_path / "d"), "--json"]) == 0
+    assert json.loads(capsys.readouterr().out)["records"] == 3
+
+
 def test_one_object_marked_on_grasps_of_two_shapes_is_refused(synthetic_split, tmp_path, capsys):
     _, test = synthetic_split
     records = [next(r for r in test if r.shape == s) for s in sorted({r.shape for r in test})[:2]]

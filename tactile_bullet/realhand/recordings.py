@@ -70,14 +70,25 @@ def _ranges(samples: JointSamples, gap_s: float) -> list[tuple[int, int, str | N
         out, keys = [], samples.row_groups
         k = 0
         n = len(keys)
+        ended: set = set()  # marks of grasps another grasp's mark has followed
+        last = None
         while k < n:
             if keys[k] == 0:
                 k += 1
                 continue
+            if keys[k] in ended:  # 1, 2, 1: grasp 1 cannot resume once grasp 2 began
+                raise UsageError(
+                    f"{samples.source}: the marker's grasp {_mark(keys[k])} returns at data row "
+                    f"{k + 1} after grasp {_mark(last)} began: a grasp's rows must be one run "
+                    "(a mark may come back after rows of 0, not after another grasp)"
+                )
+            if last is not None and last != keys[k]:
+                ended.add(last)
             j = k
             while j + 1 < n and keys[j + 1] == keys[k]:
                 j += 1
             out.append((k, j, None))
+            last = keys[k]
             k = j + 1
         return out
     if samples.windows is not None:
@@ -90,6 +101,12 @@ def _ranges(samples: JointSamples, gap_s: float) -> list[tuple[int, int, str | N
                 out.append((lo, hi, label))
         return out
     return [(s, e, None) for s, e in segment_by_silence(samples.time, samples.angles, gap_s)]
+
+
+def _mark(key) -> str:
+    """A marker value as the file holds it (a whole number without its ``.0``)."""
+    value = key.item() if hasattr(key, "item") else key
+    return str(int(value)) if isinstance(value, float) and value.is_integer() else str(value)
 
 
 def record_from_samples(

@@ -182,6 +182,12 @@ def test_compare_fails_on_a_typo_before_fitting_anything(data):
         workflow.compare(data[0], data[1], ["signature"], ["svm", "svn"])
 
 
+def test_compare_refuses_when_no_pair_asked_for_can_run(data):
+    # a table of dashes would look like a result; one pair that can run is still compared
+    with pytest.raises(UsageError, match="no descriptor x classifier pair can run: dtw-template"):
+        workflow.compare(data[0], data[1], ["raw-joints"], ["dtw-template"])
+
+
 # --- reports ------------------------------------------------------------------------------------
 
 

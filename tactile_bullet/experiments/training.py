@@ -317,6 +317,9 @@ def compare(
     # resolve every name up front so a typo fails before minutes of fitting
     descs = [get_descriptor(d) for d in descriptors]
     _check_classifiers(classifiers)
+    reasons = [_incompatible(d.name, c) for d in descs for c in classifiers]
+    if all(reasons):  # nothing to compare: say why now, not in a table of dashes
+        raise UsageError(f"no descriptor x classifier pair can run: {reasons[0]}")
     from ..console import tick
     from ..learn.doubt import pair_doubt
 

@@ -37,6 +37,21 @@ def test_a_malformed_descriptor_parameter_is_refused_before_any_work(tmp_path, c
     assert "--descriptor-param" in capsys.readouterr().err
 
 
+@pytest.mark.parametrize("argv, why", [
+    (["--synthetic", "--descriptor", "signature"], "--descriptor and --descriptor-param read"),
+    (["--synthetic", "--descriptor-param", "points=20"], "not with --synthetic"),
+    (["--data", "DATA", "--classes", "3"], "--classes sizes --synthetic data: not with --data"),
+    (["--synthetic", "--timing", "--out", "FIGS"], "--out is the figures' folder: --timing"),
+])  # fmt: skip
+def test_a_flag_that_means_nothing_with_the_others_is_refused(argv, why, tmp_path, capsys):
+    places = {"DATA": str(tmp_path), "FIGS": str(tmp_path / "figs")}
+    argv = [places.get(a, a) for a in argv]
+    assert main(["sequential", *argv]) == 2
+    err = capsys.readouterr().err
+    assert why in err and len(err.strip().splitlines()) == 1, err
+    assert not (tmp_path / "figs").exists()
+
+
 def test_accuracy_error_bars_stay_within_0_and_1():
     import numpy as np
 

@@ -29,7 +29,7 @@ def add_parser(sub) -> None:
     add_allow_partial(parser)
     parser.add_argument("--synthetic", action="store_true", help="make_classification data")
     parser.add_argument(
-        "--descriptor", default="signature+contact-normals",
+        "--descriptor", default=None,
         help="unimodal (signature, raw-joints, contact-normals) or multimodal (a+b) "
         "(default signature+contact-normals)",
     )  # fmt: skip
@@ -60,15 +60,15 @@ def add_parser(sub) -> None:
         "learn/neural_forest.py); off here, where it costs the sequential figures ~2-3 points",
     )  # fmt: skip
     parser.add_argument(
-        "--classes", type=count(2, 1000), default=7,
+        "--classes", type=count(2, 1000), default=None,
         help="--synthetic classes (default 7)",
     )
     parser.add_argument(
-        "--per-class", type=count(3, 1_000_000), default=300,
+        "--per-class", type=count(3, 1_000_000), default=None,
         help="--synthetic samples per class (default 300)",
     )
     parser.add_argument(
-        "--features", type=count(2, 100_000), default=40, help="--synthetic features (default 40)"
+        "--features", type=count(2, 100_000), default=None, help="--synthetic features (default 40)"
     )
     parser.add_argument(
         "--latency-samples", type=count(1, 100_000), default=200,
@@ -79,12 +79,32 @@ def add_parser(sub) -> None:
         help="seed of the split, the class orders and --synthetic data (default 0)",
     )  # fmt: skip
     parser.add_argument(
-        "--out", type=Path, default=Path("sequential_experiment"),
+        "--out", type=Path, default=None,
         help="folder for the three figures, not with --timing (default sequential_experiment)",
     )  # fmt: skip
     add_force_flag(parser, "figures in --out")
     parser.add_argument("--json", action="store_true", help="print one JSON document")
     parser.set_defaults(run=run)
+
+
+DEFAULTS = {"descriptor": "signature+contact-normals", "classes": 7, "per_class": 300,
+            "features": 40, "out": Path("sequential_experiment")}  # fmt: skip
+"""What the flags left out mean (their parser default is None, so that a flag given where it
+means nothing is told apart from one left out)."""
+
+
+def _no_contradiction(args: argparse.Namespace) -> None:
+    """A flag that means nothing with the others given is refused, not silently ignored."""
+    if args.synthetic and (args.descriptor is not None or args.descriptor_param):
+        raise UsageError("--descriptor and --descriptor-param read grasp data: not with "
+                         "--synthetic")  # fmt: skip
+    if not args.synthetic:
+        given = [f"--{k.replace('_', '-')}" for k in ("classes", "per_class", "features")
+                 if getattr(args, k) is not None]  # fmt: skip
+        if given:
+            raise UsageError(f"{given[0]} sizes --synthetic data: not with --data")
+    if args.timing and args.out is not None:
+        raise UsageError("--out is the figures' folder: --timing writes none")
 
 
 def check_args(args: argparse.Namespace) -> None:
@@ -95,6 +115,10 @@ def check_args(args: argparse.Namespace) -> None:
 
     if args.synthetic and args.data is not None:
         raise UsageError("give --data DIR or --synthetic, not both")
+    _no_contradiction(args)
+    for name, value in DEFAULTS.items():  # the defaults, now that what was given is known
+        if getattr(args, name) is None:
+            setattr(args, name, value)
     if not args.synthetic:
         if args.data is None:
             raise UsageError(

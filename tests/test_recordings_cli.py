@@ -107,6 +107,25 @@ def test_export_refuses_to_overwrite_without_force(tmp_path, capsys, files):
     assert "--force" in err
 
 
+def test_a_topic_given_where_only_tables_are_read_or_written_is_refused(tmp_path, capsys, files):
+    # a table has no topics: a --topic there would be ignored, not followed
+    csv_file = tmp_path / "one.csv"
+    export(files["test"][:1], csv_file, "csv")
+    data = str(files["root"] / "test")
+    for argv in (["import", str(csv_file), "--out", str(tmp_path / "d"), "--topic", "/arm"],
+                 ["identify", "--recording", str(csv_file), "--topic", "/arm"],
+                 ["export", "--data", data, "--format", "csv", "--out", str(tmp_path / "e.csv"),
+                  "--topic", "/arm"]):  # fmt: skip
+        err = run_error(capsys, argv)
+        assert "--topic names a bag's JointState topic" in err, err
+    assert not (tmp_path / "d").exists() and not (tmp_path / "e.csv").exists()
+    # a bag among the files: the topic is the bag's
+    export(files["test"], tmp_path / "arm.bag", "bag", topic="/arm")
+    doc = _json(capsys, ["import", str(csv_file), str(tmp_path / "arm.bag"), "--out",
+                         str(tmp_path / "d"), "--topic", "/arm"])  # fmt: skip
+    assert doc["records"] == 1 + len(files["test"])
+
+
 def test_import_refuses_an_existing_dataset_without_force_and_other_files_always(
     tmp_path, capsys, files
 ):

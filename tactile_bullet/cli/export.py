@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 
 from ..console import plural
+from ..errors import UsageError
 from .common import emit_json
 
 FORMATS = ("bag", "db3", "mcap", "csv")
@@ -47,6 +48,8 @@ def run(args: argparse.Namespace) -> int:
     from ..realhand.export import check_out, export
 
     start = time.perf_counter()
+    if args.format == "csv" and args.topic != "/joint_states":
+        raise UsageError("--topic names a bag's JointState topic: a csv table has none")
     check_out(Path(args.out), args.format, args.force)  # before loading the dataset
     records = records_from(args.data)
     doc = export(

@@ -157,7 +157,7 @@ def identify_recording(args: argparse.Namespace) -> int:
         raise UsageError(
             "--param, --offset and --rotation describe a new grasp: not with --recording"
         )
-    options = recording_options(args)
+    options = recording_options(args, [args.recording])
     model = resolve_model(args.model)
     start = time.perf_counter()
     grasps = read_recording(args.recording, **options)

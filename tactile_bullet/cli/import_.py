@@ -49,7 +49,7 @@ def run(args: argparse.Namespace) -> int:
 
     start = time.perf_counter()
     shapes = file_shapes(args.files, args.shape, args.labels)
-    options = recording_options(args)
+    options = recording_options(args, args.files)
     check_dataset_out(Path(args.out), args.force)  # refuse before reading gigabytes
     probe_parent(args.out, "--out")
     files, records = [], []

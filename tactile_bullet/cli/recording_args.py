@@ -35,9 +35,25 @@ def add_recording_options(parser: argparse.ArgumentParser) -> None:
     )  # fmt: skip
 
 
-def recording_options(args: argparse.Namespace) -> dict:
-    """The keyword arguments of ``recordings.read_recording`` from the shared options."""
+TABLE_SUFFIXES = (".csv", ".parquet", ".pq")
+"""Recordings that are one table, with no topics (``recordings.read_samples``)."""
+
+
+def recording_options(args: argparse.Namespace, files=()) -> dict:
+    """The keyword arguments of ``recordings.read_recording`` from the shared options;
+    ``files``, the recordings they will read: a ``--topic`` where every one is a table (which
+    has no topics) is refused rather than ignored."""
+    from pathlib import Path
+
     from ..realhand.calibration import load_calibration
+    from ..realhand.names import DEFAULT_TOPIC
+
+    files = [Path(f) for f in files]
+    if args.topic != DEFAULT_TOPIC and files and all(
+        f.suffix.lower() in TABLE_SUFFIXES for f in files
+    ):
+        raise UsageError(f"--topic names a bag's JointState topic: {files[0]} is a table "
+                         "(CSV or Parquet), which has none")  # fmt: skip
 
     gap = parse_number(args.gap, "--gap")
     if gap <= 0:

@@ -25,6 +25,8 @@ def _run(capsys, *argv):
     ("argv", "message"),
     [
         (["--protocol", "unseen-shapes"], "unknown protocol 'unseen-shapes'"),
+        (["--protocol", "all,nonsense"], "'all' runs every protocol: give it alone, not with "
+                                         "'nonsense'"),
         (["--protocol", "nosuch"], "robustness and active each run alone"),
         (["--descriptor", "signatur"], "signatur"),
         (["--classifier", "svm,forest"], "forest"),

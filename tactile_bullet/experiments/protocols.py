@@ -389,6 +389,9 @@ def resolve(names: str | Sequence[str] | None, engine: str = "bullet") -> list[s
     items = [n.strip() for n in items if n.strip()]
     if not items:
         raise UsageError("no protocol named")
+    if "all" in items:  # 'all' is every protocol: it names no list of its own
+        raise UsageError(f"'all' runs every protocol: give it alone, not with "
+                         f"{next(n for n in items if n != 'all')!r}")  # fmt: skip
     for n in items:
         if n not in PROTOCOL_NAMES:
             raise UsageError(

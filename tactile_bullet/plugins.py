@@ -492,9 +492,24 @@ def get_classifier(name: str, **params):
             f"(parameters: {', '.join(valid) or 'none'})"
         )
     try:
-        return estimator.set_params(**params)
+        estimator.set_params(**params)
+        # scikit-learn checks a value's type and range only when fitting (after minutes of
+        # descriptors, inside another function's name): check them now, where it can
+        _validate(estimator)
     except (TypeError, ValueError) as exc:
-        raise UsageError(f"classifier {name!r}: {exc}") from None
+        raise UsageError(f"classifier {name!r}: {str(exc).splitlines()[0]}") from None
+    return estimator
+
+
+def _validate(estimator) -> None:
+    """An estimator's own check of its parameters (``check_params``, or scikit-learn's where
+    it declares ``_parameter_constraints``), and each step's in a pipeline."""
+    steps = getattr(estimator, "steps", None)
+    for part in [estimator, *(s for _, s in steps or [])]:
+        if callable(getattr(part, "check_params", None)):
+            part.check_params()
+        elif hasattr(part, "_parameter_constraints"):
+            part._validate_params()
 
 
 def classifier_parameters(name: str) -> dict[str, Any]:

@@ -212,6 +212,13 @@ def test_bad_mesh_input_is_one_line_exit_2_and_writes_nothing(
     assert not cache.exists() or not any(cache.rglob("*.npz"))
 
 
+def test_param_with_a_mesh_is_refused_before_the_mesh_is_read(tmp_path, capsys):
+    # a mesh's sizes are its own: a --param would be read as a shape parameter it lacks
+    argv = ["grasp", "--mesh", str(tmp_path / "not-read.stl"), "--param", "radius=0.05"]
+    err = run_error(capsys, argv)
+    assert "--param sets a --shape's sizes: a --mesh has its own" in err
+
+
 def test_sheet_mesh_with_a_named_axis_is_accepted(tmp_path):
     """Watertightness matters for the inertia axis only: name the axis and it loads."""
     path = _bad_files(tmp_path)["sheet"]

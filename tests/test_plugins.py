@@ -242,6 +242,17 @@ def test_unknown_parameters_list_the_valid_ones():
     assert plugins.get_classifier("svm", C=2.5).C == 2.5
 
 
+@pytest.mark.parametrize(("name", "params", "why"), [
+    ("svm", {"C": "abc"}, "The 'C' parameter of SVC must be a float"),
+    ("svm", {"kernel": "rfb"}, "The 'kernel' parameter of SVC must be"),
+    ("extra-trees", {"n_estimators": 0}, "n_estimators"),
+])  # fmt: skip
+def test_a_parameter_value_out_of_range_is_refused_when_the_classifier_is_made(name, params, why):
+    # not inside the first fit, after the descriptors, under another function's name
+    with pytest.raises(UsageError, match=f"classifier '{name}': .*{why}"):
+        plugins.get_classifier(name, **params)
+
+
 def test_combination_parameters_reach_the_right_part():
     desc = plugins.get_descriptor("signature+raw-joints", points=10, include_thumb=True)
     assert desc.params == {

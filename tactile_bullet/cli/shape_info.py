@@ -36,6 +36,9 @@ def mesh_shape(args: argparse.Namespace):
         if given:
             raise UsageError(f"{given[0]} applies to --mesh only")
         return None
+    if getattr(args, "param", None):
+        raise UsageError("--param sets a --shape's sizes: a --mesh has its own (--unit and "
+                         "--scale size it)")  # fmt: skip
     from ..objects.meshes import load_mesh
 
     scale = 1.0 if args.scale is None else parse_number(args.scale, "--scale")

@@ -252,7 +252,7 @@ def load_sizes(path: str | os.PathLike) -> dict[str, dict[str, float]]:
     from ..objects.shapes import check_consistent
     from ..perception.shape_fit import _resolve_family
 
-    doc = read_toml(path, "config file")
+    doc = read_toml(path, "sizes file")
     if not doc:
         raise UsageError(f"sizes file {path} names no shape")
     out = {}

@@ -113,6 +113,11 @@ class SVMClassifier(ClassifierMixin, BaseEstimator):
     def _svc(self) -> SVC:
         return SVC(C=self.C, kernel=self.kernel, gamma=self.gamma, class_weight=self.class_weight)
 
+    def check_params(self) -> None:
+        """SVC's own check of ``C``, ``kernel``, ``gamma`` and ``class_weight`` (a ValueError
+        naming the value), before any fit rather than inside the first one."""
+        self._svc()._validate_params()
+
     def fit(self, X, y):
         from sklearn.model_selection import StratifiedKFold, cross_val_predict
 

@@ -14,6 +14,7 @@ import pytest
 
 from tactile_bullet import plugins
 from tactile_bullet.errors import UsageError
+from tactile_bullet.learn.descriptors import raw_joint_names
 from tactile_bullet.learn.models import load_model, save_model
 from tactile_bullet.learn.neighbours import NeighbourVote
 from tactile_bullet.objects.shapes import BUILTIN_SHAPES
@@ -43,13 +44,14 @@ def test_a_saved_knn_loads_and_answers_without_scikit_learn(tmp_path):
     from tactile_bullet.learn.models import Model
 
     rng = np.random.default_rng(1)
-    est = plugins.get_classifier("knn").fit(rng.normal(size=(30, 5)), np.repeat(["a", "b"], 15))
+    n = len(raw_joint_names(False))  # the raw-joints descriptor's width
+    est = plugins.get_classifier("knn").fit(rng.normal(size=(30, n)), np.repeat(["a", "b"], 15))
     path = save_model(tmp_path / "m.npz", Model("raw-joints", {}, "knn", {}, est))
     out = _fresh(
         "import sys, numpy as np\n"
         "from tactile_bullet.learn.models import load_model\n"
         f"m = load_model({str(path)!r})\n"
-        "p = m.estimator.predict_proba(np.zeros((1, 5)))\n"
+        f"p = m.estimator.predict_proba(np.zeros((1, {n})))\n"
         "print(type(m.estimator).__name__, 'sklearn' in sys.modules, round(p.sum(), 9))\n"
     )
     assert out.split() == ["NeighbourVote", "False", "1.0"]
@@ -72,7 +74,7 @@ def test_a_knn_file_whose_parameters_disagree_with_its_state_is_refused(tmp_path
     from tactile_bullet.learn.models import Model
 
     rng = np.random.default_rng(0)
-    x, y = rng.normal(size=(20, 4)), np.repeat(["cone", "torus"], 10)
+    x, y = rng.normal(size=(20, len(raw_joint_names(False)))), np.repeat(["cone", "torus"], 10)
     est = plugins.get_classifier("knn", n_neighbors=3).fit(x, y)
     path = save_model(tmp_path / "m.npz", Model("raw-joints", {}, "knn", {"n_neighbors": 7}, est))
     with pytest.raises(UsageError, match="n_neighbors=7 does not match its saved state"):

@@ -230,6 +230,15 @@ def test_a_model_whose_descriptor_gives_rows_its_classifier_cannot_read_is_refus
         load_model(_rewrite(svm_file, tmp_path, more_points))
 
 
+def test_a_model_whose_rows_its_descriptor_does_not_give_is_not_saved(svm_model, tmp_path):
+    from dataclasses import replace
+
+    wrong = replace(svm_model, descriptor_params={"signature.points": 20})
+    with pytest.raises(UsageError, match="gives \\d+ features, its classifier was fitted on"):
+        save_model(tmp_path / "m.npz", wrong)
+    assert not (tmp_path / "m.npz").exists()
+
+
 def test_a_newer_format_is_refused_with_both_versions(saved, tmp_path):
     path = _rewrite(saved, tmp_path, lambda m: _set_meta(m, format_version=99))
     with pytest.raises(UsageError, match="99") as info:
@@ -506,7 +515,8 @@ def test_an_svm_file_of_another_release_series_is_read_but_not_restored_into_lib
 def test_an_svm_of_a_value_no_model_file_holds_is_not_saved(tmp_path):
     from tactile_bullet.learn.classifiers.svm import SVMClassifier
 
-    X = np.random.default_rng(0).normal(size=(12, 3))
+    width = len(plugins.get_descriptor("signature").feature_names())
+    X = np.random.default_rng(0).normal(size=(12, width))
     est = SVMClassifier(class_weight={0: 1.0, 1: 2.0}).fit(X, ["cone", "torus"] * 6)
     model = Model("signature", {}, "svm", {}, est)
     with pytest.raises(UsageError, match="cannot save the 'svm' classifier: .*dict"):

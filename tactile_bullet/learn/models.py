@@ -193,6 +193,13 @@ def save_model(path: str | Path, model: Model) -> Path:
     est = model.estimator
     if not hasattr(est, "classes_"):
         raise UsageError("cannot save a model whose classifier has not been fitted")
+    from .. import plugins
+
+    try:  # a file load_model would refuse is not written
+        described = plugins.get_descriptor(model.descriptor, **dict(model.descriptor_params))
+    except UsageError as exc:
+        raise UsageError(f"cannot save a model of descriptor {model.descriptor!r}: {exc}") from None
+    _check_width(path, model.descriptor, described, est)
     meta: dict[str, Any] = {
         "format": MODEL_FORMAT,
         "format_version": MODEL_FORMAT_VERSION,
@@ -392,9 +399,9 @@ def load_model(path: str | Path) -> Model:
 
 
 def _check_width(path: Path, descriptor: str, described: Any, estimator: Any) -> None:
-    """Refuse a model whose descriptor, with its saved parameters, gives rows of another
-    width than its estimator was fitted on (metadata edited or mixed from two files): every
-    answer would fail. Descriptors or estimators that do not say their width pass."""
+    """Refuse a model whose descriptor, with its parameters, gives rows of another width than
+    its estimator was fitted on (metadata edited, or mixed from two files): every answer would
+    fail. Descriptors or estimators that do not say their width pass."""
     names = getattr(described, "feature_names", None)
     fitted = getattr(estimator, "n_features_in_", None)
     if names is None or fitted is None:

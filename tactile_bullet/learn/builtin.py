@@ -18,7 +18,11 @@ def register_descriptors(register):
     )
     from .descriptors import ContactNormalsDescriptor, RawJointsDescriptor, SignatureDescriptor
     from .finger_points import CoupledFingerPointsDescriptor, FingerPointsDescriptor
-    from .robust import RobustJointsDescriptor, RobustSignatureDescriptor
+    from .robust import (
+        RobustCoupledJointsDescriptor,
+        RobustJointsDescriptor,
+        RobustSignatureDescriptor,
+    )
     from .time_series import TimeSeriesDescriptor
 
     for descriptor in (
@@ -28,6 +32,7 @@ def register_descriptors(register):
         TimeSeriesDescriptor,
         RobustSignatureDescriptor,
         RobustJointsDescriptor,
+        RobustCoupledJointsDescriptor,
         CoupledSignatureDescriptor,
         CoupledJointsDescriptor,
         CoupledTimeSeriesDescriptor,

@@ -191,3 +191,21 @@ class RobustJointsDescriptor(_OnZeroedRecords):
 
     def _inner(self) -> RawJointsDescriptor:
         return RawJointsDescriptor(self.include_thumb)
+
+
+@dataclass(frozen=True)
+class RobustCoupledJointsDescriptor(_OnZeroedRecords):
+    """The coupled-joints descriptor on :func:`zeroed` records: per long finger J4, J3 and
+    J0 = J1 + J2 (LF J5 first), each joint's open-hand reading subtracted and its plateau
+    averaged. Neither a calibration bias nor the tendon's split of J0 reaches it, and it reads
+    the hand through other features than the finger points: a second opinion whose mistakes
+    are not the default's (``learn/doubt.SECOND_OPINION``)."""
+
+    reference: int = REFERENCE_SAMPLES
+    tail: int = TAIL_SAMPLES
+    name: ClassVar[str] = "robust-coupled-joints"
+
+    def _inner(self):
+        from .coupled import CoupledJointsDescriptor
+
+        return CoupledJointsDescriptor()

@@ -1,0 +1,97 @@
+"""A learned second opinion against the shape fit's: how the shipped default's doubt flags wrong
+and right answers on every in-family column of a robustness matrix's cached grasps, either way.
+
+The shipped way: an answer is flagged where it is ``ambiguous`` or ``unknown`` as the matrix
+counts it, the shape fit seconding each answer (``learn/doubt.CROSS_CHECK``). The other way
+(declared before the seventeenth replicate, docs/robustness.md): the shape fit seconds nothing;
+instead an svm trained on the default's own training grasps, reading ``robust-coupled-joints``
+(the zeroed, plateau-averaged J4, J3 and J0 of each long finger), seconds every answer, and an
+answer it names otherwise is flagged. The unknown rules and the margin are the same both ways.
+
+Prints, per column, wrong and right answers flagged each way, then the declared checks: (a) more
+in-family columns flag at least 80% of their wrong answers at most 5% of their right ones;
+(b) right answers flagged, summed over the in-family columns, fall by at least 20; (c) wrong
+answers flagged, summed, fall by at most 2.
+
+    python benchmarks/second_opinion.py --cache OUT/data --replicate 17
+"""
+
+from __future__ import annotations
+
+import argparse
+import time
+from pathlib import Path
+
+import numpy as np
+from _report import matrix_column, provenance  # first: this checkout ahead of an installed copy
+
+from tactile_bullet.experiments import robustness as R
+from tactile_bullet.experiments.robustness_sets import COLUMNS
+from tactile_bullet.learn import doubt as D
+from tactile_bullet.learn.default import default_meta, default_model
+from tactile_bullet.plugins import get_classifier, get_descriptor
+
+SECOND_DESCRIPTOR = "robust-coupled-joints"
+
+
+def flagged(found) -> np.ndarray:
+    """Which of ``doubt.doubts``' verdicts flag their answer (ambiguous or unknown)."""
+    return np.array([d["ambiguous"] is not None or bool(d["unknown"]) for d in found])
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--cache", required=True, help="a robustness matrix's data folder")
+    ap.add_argument("--replicate", type=int, default=0, help="the run's --replicate")
+    ap.add_argument("--seed", type=int, default=0, help="the run's --seed")
+    args = ap.parse_args(argv)
+    provenance(argv)
+    cache = Path(args.cache)
+    model = default_model()
+    start = time.perf_counter()
+    train = R.training_records(cache, "full", default_meta()["training"])
+    descriptor = get_descriptor(SECOND_DESCRIPTOR)
+    second = get_classifier("svm").fit(descriptor.transform(train),
+                                       np.array([str(r.shape) for r in train]))  # fmt: skip
+    print(f"second opinion: {SECOND_DESCRIPTOR} + svm on the default's {len(train)} training "
+          f"rows ({time.perf_counter() - start:.0f} s)", flush=True)
+    ways = ("shape fit", "second svm")
+    totals = {k: [0, 0] for k in ways}  # wrong flagged, right flagged
+    met = {k: 0 for k in ways}
+    for column in COLUMNS:
+        records = matrix_column(cache, column, args.replicate, args.seed)
+        names, proba, was = model.answers(records)
+        names = np.array([str(n) for n in names])
+        truth = np.array([R.FAMILY_OBJECTS.get(r.shape, r.shape) for r in records])
+        right = names == truth
+        shipped = flagged(D.doubts(model, records, names, proba, renamed_from=was))
+        bare = flagged(D.doubts(model, records, names, proba, cross_check=False,
+                                renamed_from=was))  # fmt: skip
+        others = np.array([str(v) for v in second.predict(descriptor.transform(records))])
+        cells = []
+        for key, flags in zip(ways, (shipped, bare | (others != names)), strict=True):
+            w, r = int((flags & ~right).sum()), int((flags & right).sum())
+            totals[key][0] += w
+            totals[key][1] += r
+            nw, nr = int((~right).sum()), int(right.sum())
+            ok = (nw == 0 or w >= 0.8 * nw) and r <= 0.05 * nr
+            met[key] += ok
+            cells.append(f"{key}: wrong {w}/{nw}, right {r}/{nr}{' (target met)' if ok else ''}")
+        print(f"{column.name:12s} " + "; ".join(cells), flush=True)
+    (old_w, old_r), (new_w, new_r) = totals.values()
+    old_m, new_m = met.values()
+    checks = [
+        (new_m > old_m, f"(a) columns meeting the target: {old_m} -> {new_m} (more)"),
+        (old_r - new_r >= 20, f"(b) right answers flagged, summed: {old_r} -> {new_r} "
+                              "(fall by at least 20)"),
+        (old_w - new_w <= 2, f"(c) wrong answers flagged, summed: {old_w} -> {new_w} "
+                             "(fall by at most 2)"),
+    ]  # fmt: skip
+    for ok, text in checks:
+        print(f"{'met' if ok else 'FAILED'}: {text}")
+    print("verdict: " + ("kept" if all(ok for ok, _ in checks) else "reverted"))
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

@@ -15,8 +15,15 @@ by the same rule on the runs' columns pooled with this one's (``robustness.poole
 column's grasps of all the runs), as docs/robustness.md's pooled rule declares; it is still
 trained on ``--matrix``'s training sets, which every replicate shares.
 
+The default carries its second opinion (``learn/second_opinion.py``: an svm on
+``robust-coupled-joints`` trained on the same grasps). ``--add-second-opinion --cache DIR``
+gives the shipped default one without choosing or training it again: the training grasps
+read from DIR must be the ones it was trained on (their features equal to
+``default_training.npz``'s), else nothing is written.
+
 Usage: python tools/make_default_model.py --matrix OUT [--pool OUT,...] [--cache OUT/data]
        [--no-write]
+       python tools/make_default_model.py --add-second-opinion --cache OUT/data
 """
 
 from __future__ import annotations
@@ -36,17 +43,27 @@ sys.path.insert(0, str(ROOT))
 from tactile_bullet.experiments import robustness as R  # noqa: E402
 from tactile_bullet.learn.default import META_FILE, MODEL_FILE, TRAINING_FILE  # noqa: E402
 from tactile_bullet.learn.models import save_model  # noqa: E402
+from tactile_bullet.learn.second_opinion import SecondOpinion  # noqa: E402
 
 DATA = ROOT / "tactile_bullet" / "data"
 
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--matrix", required=True, help="the matrix's --out folder")
+    ap.add_argument("--matrix", help="the matrix's --out folder")
+    ap.add_argument("--add-second-opinion", action="store_true",
+                    help="give the shipped default its second opinion (needs --cache)")
     ap.add_argument("--cache", help="its grasp cache (default MATRIX/data)")
     ap.add_argument("--no-write", action="store_true", help="train and report, write nothing")
     ap.add_argument("--pool", default="", help="other replicate runs' folders to pool with it")
     args = ap.parse_args()
+    if args.add_second_opinion:
+        if not args.cache:
+            sys.exit("--add-second-opinion reads the default's training grasps from --cache")
+        add_second_opinion(Path(args.cache), args.no_write)
+        return
+    if not args.matrix:
+        sys.exit("give --matrix (or --add-second-opinion)")
     matrix = Path(args.matrix)
     doc = json.loads((matrix / "robustness.json").read_text())
     best = doc["default"]
@@ -72,6 +89,7 @@ def main() -> None:
                             capture_output=True, text=True).stdout.strip()  # fmt: skip
     info = {"default": {"method": best["method"], "training": best["training"]}}
     model = R.fit_model(best["descriptor"], best["params"], best["classifier"], records, info)
+    model.second = SecondOpinion.fit(records, [str(r.shape) for r in records])
     print(f"{best['method']} ({best['training']}) on {len(records)} grasps; worst column "
           f"{100 * best['score']:.1f}%, mean {100 * best['mean']:.1f}%")
     print(f"doubt: {model.info['doubt'].get('margin')}, novelty threshold "
@@ -98,9 +116,45 @@ def main() -> None:
         "training_sha256": hashlib.sha256(training.read_bytes()).hexdigest(),
         "replicate": replicate,
         **({"pooled_replicates": replicates} if len(runs) > 1 else {}),
+        "second_opinion": {"descriptor": model.second.descriptor,
+                           "classifier": model.second.classifier},
         "generated_by": "tools/make_default_model.py", "commit": commit,
         "sha256": hashlib.sha256(path.read_bytes()).hexdigest(),
     }  # fmt: skip
+    (DATA / META_FILE).write_text(json.dumps(meta, indent=2) + "\n")
+    print(f"wrote {path} ({path.stat().st_size / 1024:.0f} KiB) and {DATA / META_FILE}")
+
+
+def _commit() -> str:
+    return subprocess.run(["git", "-C", str(ROOT), "rev-parse", "--short", "HEAD"],
+                          capture_output=True, text=True).stdout.strip()  # fmt: skip
+
+
+def add_second_opinion(cache: Path, no_write: bool) -> None:
+    """The shipped default, unchanged but for the second opinion fitted on its own training
+    grasps (checked against ``default_training.npz`` first)."""
+    from tactile_bullet.learn.default import default_meta, default_model
+
+    meta = default_meta()
+    model = default_model()
+    grasps = R.training_records(cache, "full", meta["training"], noisy=False)
+    with np.load(DATA / TRAINING_FILE) as kept:
+        same = kept["features"].shape == (len(grasps), kept["features"].shape[1]) and np.allclose(
+            model.features(grasps), kept["features"], rtol=0, atol=1e-12)
+    if not same:
+        sys.exit(f"{cache} does not hold the default's training grasps (their features differ "
+                 f"from {TRAINING_FILE}'s)")
+    records = R.training_records(cache, "full", meta["training"])
+    model.second = SecondOpinion.fit(records, [str(r.shape) for r in records])
+    print(f"second opinion: {model.second.descriptor} + {model.second.classifier} on "
+          f"{len(records)} training rows (the default's, checked)")
+    if no_write:
+        return
+    path = save_model(DATA / MODEL_FILE, model)
+    digest = hashlib.sha256(path.read_bytes()).hexdigest()
+    meta = {**meta, "second_opinion": {"descriptor": model.second.descriptor,
+                                       "classifier": model.second.classifier},
+            "commit": _commit(), "sha256": digest}  # fmt: skip
     (DATA / META_FILE).write_text(json.dumps(meta, indent=2) + "\n")
     print(f"wrote {path} ({path.stat().st_size / 1024:.0f} KiB) and {DATA / META_FILE}")
 

@@ -57,6 +57,9 @@ all, and the 5% threshold read from ~190 right answers is off by ~1.6 points of 
 times an svm's (docs/performance.md, "Shape fits on every core")."""
 KNOWN_CHECK = "known-grasps"
 """The second opinion of a model fitted with the user's known grasps (``train --known``)."""
+SECOND_MODEL = "second-model"
+"""The second opinion of a model carrying a second classifier (the shipped default's:
+``learn/second_opinion.py``)."""
 
 
 def cross_check_applies(classes: Sequence[str], classifier: str) -> bool:
@@ -476,9 +479,12 @@ def model_cross_check(info: dict) -> bool:
 
 def second_opinion(model) -> str | None:
     """Which second opinion a model's answers get: ``KNOWN_CHECK`` (it holds known grasps),
-    ``CROSS_CHECK`` (its calibration asked for the shape fit) or None."""
+    ``SECOND_MODEL`` (it carries a second classifier), ``CROSS_CHECK`` (its calibration asked
+    for the shape fit) or None."""
     if getattr(model, "known", None) is not None:
         return KNOWN_CHECK
+    if getattr(model, "second", None) is not None:
+        return SECOND_MODEL
     return CROSS_CHECK if model_cross_check(model.info) else None
 
 
@@ -497,6 +503,8 @@ def doubts(
     opinion = second_opinion(model) if cross_check and len(records) else None
     if opinion == KNOWN_CHECK:
         others = list(model.known.nearest(records))
+    elif opinion == SECOND_MODEL:
+        others = model.second.names(records)
     elif opinion == CROSS_CHECK:
         others = seconding(names, cross_check_accepts(records, classes))
     novelty = getattr(model, "novelty", None)

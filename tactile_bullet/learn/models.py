@@ -63,6 +63,8 @@ if TYPE_CHECKING:
     from .doubt import KnownGrasps
 
 _STATE_PREFIX = "state."
+_SECOND_PREFIX = "second."
+"""The members of a second opinion's classifier state (``learn/second_opinion.py``)."""
 _KNOWN_FEATURES, _KNOWN_LABELS = "known.features", "known.labels"
 _NOVELTY_ARRAYS = ("centre", "scale", "reference")
 _NOVELTY_PREFIX = "novelty."
@@ -105,6 +107,10 @@ class Model:
     engine and family, where that answers ``unknown`` (None where the training grasps had no
     contacts, or in a file written before it existed). Saved as ``axis_check`` in the
     metadata."""
+    second: Any = None
+    """:class:`tactile_bullet.learn.second_opinion.SecondOpinion`: a second classifier that
+    seconds the answers in place of the shape fit (the shipped default's; None otherwise).
+    Saved as ``second_opinion`` in the metadata and ``second.*`` arrays."""
     software_version: str = __version__
     format_version: int = MODEL_FORMAT_VERSION
 
@@ -222,6 +228,9 @@ def save_model(path: str | Path, model: Model) -> Path:
                    for k, v in novelty_arrays.items()}  # fmt: skip
     if model.axis is not None:
         meta["axis_check"] = model.axis.to_dict()
+    if model.second is not None:
+        meta["second_opinion"], second_arrays = model.second.to_state()
+        arrays |= second_arrays
     saved_state = _state_of(est, model.classifier)
     if saved_state is not None:
         state, state_arrays = saved_state
@@ -277,7 +286,7 @@ def _is_model_member(name: str) -> bool:
     return name in (
         "meta", "estimator_state", "estimator_skops", _KNOWN_FEATURES, _KNOWN_LABELS,
         *(_NOVELTY_PREFIX + k for k in _NOVELTY_ARRAYS),
-    ) or name.startswith(_STATE_PREFIX)  # fmt: skip
+    ) or name.startswith((_STATE_PREFIX, _SECOND_PREFIX))  # fmt: skip
 
 
 def _read(path: Path) -> tuple[dict, dict[str, np.ndarray]]:
@@ -383,6 +392,11 @@ def load_model(path: str | Path) -> Model:
     known = _load_known(path, meta, contents, classes)
     novelty = _load_novelty(path, meta, contents)
     axis = _load_axis(path, meta)
+    second = None
+    if "second_opinion" in meta:
+        from .second_opinion import SecondOpinion
+
+        second = SecondOpinion.from_state(meta["second_opinion"], contents, classes, str(path))
     return Model(
         descriptor=descriptor,
         descriptor_params=descriptor_params,
@@ -393,6 +407,7 @@ def load_model(path: str | Path) -> Model:
         known=known,
         novelty=novelty,
         axis=axis,
+        second=second,
         software_version=str(meta.get("software_version", "unknown")),
         format_version=MODEL_FORMAT_VERSION,
     )

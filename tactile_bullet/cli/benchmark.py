@@ -42,8 +42,10 @@ def add_parser(sub) -> None:
         help="robustness: a hand written by others as a column (menagerie=FILE, "
         "gymnasium=FILE: a model `convert-hand` wrote; repeatable or comma-separated)",
     )  # fmt: skip
-    parser.add_argument("--descriptor", metavar="A,B", help="descriptors (default: all installed)")
-    parser.add_argument("--classifier", metavar="X,Y", help="classifiers (default: all installed)")
+    parser.add_argument("--descriptor", metavar="A,B", action="append",
+                        help="descriptors (repeatable; default: all installed)")  # fmt: skip
+    parser.add_argument("--classifier", metavar="X,Y", action="append",
+                        help="classifiers (repeatable; default: all installed)")  # fmt: skip
     parser.add_argument(
         "--training", metavar="T,...", default="clean,noise-aware",
         help="clean, noise-aware and/or randomized (default: clean,noise-aware; randomized "

@@ -22,11 +22,13 @@ def add_parser(sub) -> None:
     parser.add_argument("--test", metavar="DIR", help="test dataset (default: split --data)")
     add_allow_partial(parser)
     parser.add_argument(
-        "--descriptor", metavar="A,B", help="descriptors to compare (default: all installed)"
-    )
+        "--descriptor", metavar="A,B", action="append",
+        help="descriptors to compare (repeatable; default: all installed)",
+    )  # fmt: skip
     parser.add_argument(
-        "--classifier", metavar="X,Y", help="classifiers to compare (default: all installed)"
-    )
+        "--classifier", metavar="X,Y", action="append",
+        help="classifiers to compare (repeatable; default: all installed)",
+    )  # fmt: skip
     parser.add_argument(
         "--test-fraction", type=float, default=0.3,
         help="share of --data held out for testing when no --test is given (default 0.3)",
@@ -40,10 +42,13 @@ def add_parser(sub) -> None:
     with_names_in_help(parser)
 
 
-def name_list(text: str | None, what: str, default) -> list[str]:
-    """'a,b' -> ['a', 'b'] (no empties, no duplicates); None -> every installed name."""
+def name_list(text: str | list[str] | None, what: str, default) -> list[str]:
+    """'a,b' -> ['a', 'b'] (no empties, no duplicates); a repeated flag's values (a list)
+    joined as one list; None -> every installed name."""
     if text is None:
         return list(default())
+    if isinstance(text, list):  # --classifier svm --classifier knn: both, not the last only
+        text = ",".join(text)
     names = [n.strip() for n in text.split(",")]
     if not all(names):
         raise UsageError(f"{what} expects comma-separated names, got {text!r}")

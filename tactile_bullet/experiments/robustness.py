@@ -114,10 +114,13 @@ SEEN: dict[str, tuple[str, ...]] = {
 left out of its score."""
 
 
-def select_candidates(descriptors: str | None, classifiers: str | None) -> list[Candidate]:
-    """The candidates whose descriptor and classifier are among the comma lists given (all
-    where None); a UsageError where none is left."""
+def select_candidates(descriptors: str | Sequence[str] | None,
+                      classifiers: str | Sequence[str] | None) -> list[Candidate]:  # fmt: skip
+    """The candidates whose descriptor and classifier are among the comma lists given (a
+    repeated flag's lists joined; all where None); a UsageError where none is left."""
     def names(text):
+        if text is not None and not isinstance(text, str):
+            text = ",".join(text)
         return None if not text else {n.strip() for n in text.split(",") if n.strip()}
 
     descs, clfs = names(descriptors), names(classifiers)

@@ -345,6 +345,7 @@ def compare(
                 "predict_latency_ms": _latency_ms(desc, estimator, test_records),
                 "train_records": len(train_records),
                 "test_records": len(test_records),
+                "skipped": None,  # every row the same fields: a run pair skipped nothing
             }
             row["ambiguous"] = None
             if doubt:

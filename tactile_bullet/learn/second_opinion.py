@@ -27,6 +27,8 @@ from ..files import json_value
 
 DESCRIPTOR = "robust-coupled-joints"
 """What the default's second svm reads (``learn/robust.RobustCoupledJointsDescriptor``)."""
+WITHOUT_SERIES = {"robust-coupled-joints": "coupled-joints"}
+"""The descriptor of the same columns, unzeroed, that reads a record without a series."""
 CLASSIFIER = "svm"
 ARRAY_PREFIX = "second."
 """Model-file members holding the second classifier's state arrays."""
@@ -54,10 +56,22 @@ class SecondOpinion:
         return cls(descriptor, {}, classifier, est)
 
     def names(self, records: Sequence) -> list[str]:
-        """The family this opinion names for each record."""
+        """The family this opinion names for each record. A record whose time series is too
+        short to zero (a recording of final configurations only, records read without their
+        series) is read by :data:`WITHOUT_SERIES`'s descriptor of the same columns, unzeroed."""
         from ..plugins import get_descriptor
 
-        x = get_descriptor(self.descriptor, **dict(self.params)).transform(records)
+        described = get_descriptor(self.descriptor, **dict(self.params))
+        need = getattr(described, "reference", 0) + getattr(described, "tail", 0)
+        short = [np.asarray(r.angles).ndim != 2 or len(r.angles) < need for r in records]
+        x = np.empty((len(records), len(described.feature_names())))
+        full = [i for i, s in enumerate(short) if not s]
+        if full:
+            x[full] = described.transform([records[i] for i in full])
+        if len(full) < len(records):
+            plain = get_descriptor(WITHOUT_SERIES.get(self.descriptor, self.descriptor))
+            rest = [i for i, s in enumerate(short) if s]
+            x[rest] = plain.transform([records[i] for i in rest])
         return [str(v) for v in self.estimator.predict(x)]
 
     def to_state(self) -> tuple[dict, dict[str, np.ndarray]]:

@@ -112,8 +112,10 @@ class Identifier:
         ``tactile-bullet calibrate``; None: the shipped ones), used by every shape fit this
         identifier runs (a shape-fit model, the cross-check)."""
         self.cross_check = cross_check
-        """Whether the answer at a grasp's end asks the shape fit's second opinion where the
-        model's calibration wants it (``learn/doubt.py``; ~60 ms; False: the margin only)."""
+        """Whether the answer at a grasp's end asks the model's second opinion: its second
+        svm for the shipped default, the shape fit where a trained model's calibration wants
+        it (``learn/doubt.py``; ~60 ms), its nearest known grasp for ``train --known``'s;
+        False: the margin only."""
         self._segmenter = GraspSegmenter(gap_s)
         self._maps: dict[tuple[str, ...], JointMap | None] = {}
         self._map: JointMap | None = None

@@ -108,3 +108,13 @@ def matrix_column(cache: str | Path, column, replicate: int = 0, seed: int = 0) 
     from tactile_bullet.experiments.robustness_sets import read_column
 
     return read_column(column, {s: matrix_set(cache, s, replicate) for s in column.sets}, seed)
+
+
+def doubt_cell(key: str, flags, right) -> tuple[int, int, bool, str]:
+    """A column's doubt as issue 27 counts it: the wrong and the right answers ``flags`` marks
+    (``right``: which answers are right), whether at least 80% of its wrong answers are flagged
+    at most 5% of its right ones, and the cell ``key: wrong w/n, right r/n`` printed."""
+    w, r = int((flags & ~right).sum()), int((flags & right).sum())
+    nw, nr = int((~right).sum()), int(right.sum())
+    ok = (nw == 0 or w >= 0.8 * nw) and r <= 0.05 * nr
+    return w, r, ok, f"{key}: wrong {w}/{nw}, right {r}/{nr}{' (target met)' if ok else ''}"

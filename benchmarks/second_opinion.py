@@ -24,7 +24,11 @@ import time
 from pathlib import Path
 
 import numpy as np
-from _report import matrix_column, provenance  # first: this checkout ahead of an installed copy
+from _report import (  # first: this checkout ahead of an installed copy
+    doubt_cell,
+    matrix_column,
+    provenance,
+)
 
 from tactile_bullet.experiments import robustness as R
 from tactile_bullet.experiments.robustness_sets import COLUMNS
@@ -76,13 +80,11 @@ def main(argv=None) -> int:
         others = np.array(second.names(records))
         cells = []
         for key, flags in zip(ways, (shipped, bare | (others != names)), strict=True):
-            w, r = int((flags & ~right).sum()), int((flags & right).sum())
+            w, r, ok, cell = doubt_cell(key, flags, right)
             totals[key][0] += w
             totals[key][1] += r
-            nw, nr = int((~right).sum()), int(right.sum())
-            ok = (nw == 0 or w >= 0.8 * nw) and r <= 0.05 * nr
             met[key] += ok
-            cells.append(f"{key}: wrong {w}/{nw}, right {r}/{nr}{' (target met)' if ok else ''}")
+            cells.append(cell)
         print(f"{column.name:12s} " + "; ".join(cells), flush=True)
     (old_w, old_r), (new_w, new_r) = totals.values()
     old_m, new_m = met.values()

@@ -277,6 +277,25 @@ def read_recordings(
     return out
 
 
+ANSWER_CHUNK = 64
+"""Grasps of a recording answered in one batch (descriptor, classifier, second opinion)."""
+
+
+def _answer_chunk(model, records: Sequence[GraspRecord]) -> tuple[list, list, list]:
+    """(names, probability rows, doubts) of ``records``, features computed once."""
+    from ..learn.doubt import doubts
+
+    features = model.features(records)
+    shapes = np.asarray(model.estimator.predict(features)).astype(str)
+    classes = [str(c) for c in model.classes]
+    try:
+        proba = np.asarray(model.estimator.predict_proba(features), dtype=float)
+    except (AttributeError, NotImplementedError):
+        proba = np.array([[float(c == s) for c in classes] for s in shapes])
+    found = doubts(model, records, shapes, proba, features=features)
+    return list(shapes), list(proba), found
+
+
 def identify_grasps(model, grasps: Sequence[RecordedGrasp]) -> list[dict]:
     """The model's answer for every grasp of a recording, features computed in one batch:
     ``{"index", "file", "start_s", "end_s", "samples", "label", "object", "shape",
@@ -286,16 +305,18 @@ def identify_grasps(model, grasps: Sequence[RecordedGrasp]) -> list[dict]:
     records = [g.record for g in grasps]
     if not records:
         return []
-    features = model.features(records)
-    shapes = np.asarray(model.estimator.predict(features)).astype(str)
-    classes = [str(c) for c in model.classes]
-    try:
-        proba = np.asarray(model.estimator.predict_proba(features), dtype=float)
-    except (AttributeError, NotImplementedError):
-        proba = np.array([[float(c == s) for c in classes] for s in shapes])
-    from ..learn.doubt import doubts
+    from ..console import start, tick
 
-    found = doubts(model, records, shapes, proba, features=features)
+    start("identify: grasps answered", len(records))
+    shapes, proba, found = [], [], []
+    for at in range(0, len(records), ANSWER_CHUNK):  # a long recording says how far it is
+        part = records[at : at + ANSWER_CHUNK]
+        names, probs, doubt = _answer_chunk(model, part)
+        shapes += names
+        proba += probs
+        found += doubt
+        tick("identify: grasps answered", at + len(part), len(records))
+    classes = [str(c) for c in model.classes]
     out = []
     for g, shape, row, doubt in zip(grasps, shapes, proba, found, strict=True):
         out.append(

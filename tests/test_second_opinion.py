@@ -64,6 +64,18 @@ def test_it_seconds_the_answers_in_place_of_the_shape_fit(seconded, synthetic_sp
     assert all(d["ambiguous"] is not None for d in D.doubts(model, test, names, proba))
 
 
+def test_a_grasp_without_its_series_is_read_unzeroed_not_refused(seconded, synthetic_split):
+    # a recording of final configurations only has nothing to zero: the same columns, raw
+    _, test = synthetic_split
+    bare = [r.__class__(**{**r.__dict__, "time": r.time[-1:], "angles": r.angles[-1:]})
+            for r in test]  # fmt: skip
+    x = get_descriptor("coupled-joints").transform(bare)
+    want = [str(v) for v in seconded.second.estimator.predict(x)]
+    assert seconded.second.names(bare) == want
+    mixed = [bare[0], *test[1:]]  # one short grasp among whole ones: each read its own way
+    assert seconded.second.names(mixed) == [want[0], *seconded.second.names(test[1:])]
+
+
 class _Always:
     def __init__(self, name):
         self.name = name

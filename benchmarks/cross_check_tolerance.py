@@ -42,7 +42,7 @@ def flags(model, records, answers, tolerance: float) -> np.ndarray:
         found = D.doubts(model, records, names, proba, renamed_from=was)
     finally:
         D.CROSS_CHECK_TOLERANCE = kept
-    return np.array([d["ambiguous"] is not None or bool(d["unknown"]) for d in found])
+    return D.flagged_answers(found)
 
 
 def main(argv=None) -> int:

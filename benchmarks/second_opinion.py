@@ -39,11 +39,6 @@ from tactile_bullet.learn.second_opinion import SecondOpinion
 SECOND_DESCRIPTOR = "robust-coupled-joints"
 
 
-def flagged(found) -> np.ndarray:
-    """Which of ``doubt.doubts``' verdicts flag their answer (ambiguous or unknown)."""
-    return np.array([d["ambiguous"] is not None or bool(d["unknown"]) for d in found])
-
-
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--cache", required=True, help="a robustness matrix's data folder")
@@ -74,8 +69,8 @@ def main(argv=None) -> int:
         names = np.array([str(n) for n in names])
         truth = np.array([R.FAMILY_OBJECTS.get(r.shape, r.shape) for r in records])
         right = names == truth
-        shipped = flagged(D.doubts(model, records, names, proba, renamed_from=was))
-        bare = flagged(D.doubts(model, records, names, proba, cross_check=False,
+        shipped = D.flagged_answers(D.doubts(model, records, names, proba, renamed_from=was))
+        bare = D.flagged_answers(D.doubts(model, records, names, proba, cross_check=False,
                                 renamed_from=was))  # fmt: skip
         others = np.array(second.names(records))
         cells = []

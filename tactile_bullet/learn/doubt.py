@@ -525,6 +525,11 @@ def doubts(
     ]
 
 
+def flagged_answers(found: Sequence[dict]) -> np.ndarray:
+    """Which of :func:`doubts`' verdicts flag their answer: ambiguous or unknown."""
+    return np.array([d["ambiguous"] is not None or bool(d["unknown"]) for d in found], bool)
+
+
 def evaluation_doubt(
     model, records: Sequence, y_true, y_pred, proba, features: np.ndarray | None = None,
     renamed_from: Sequence[str | None] | None = None,
@@ -534,7 +539,7 @@ def evaluation_doubt(
     the share of all, right and wrong answers flagged, and how many answers the grasps'
     contacts renamed (``Model.answers``; docs/json.md)."""
     found = doubts(model, records, y_pred, proba, features=features, renamed_from=renamed_from)
-    flags = np.array([d["ambiguous"] is not None or d["unknown"] for d in found], dtype=bool)
+    flags = flagged_answers(found)
     unknown = np.array([d["unknown"] for d in found], dtype=bool)
     truth = np.asarray(y_true).astype(str)
     correct = np.asarray(y_pred).astype(str) == truth

@@ -36,8 +36,6 @@ from tactile_bullet.learn import doubt as D
 from tactile_bullet.learn.default import default_meta, default_model
 from tactile_bullet.learn.second_opinion import SecondOpinion
 
-SECOND_DESCRIPTOR = "robust-coupled-joints"
-
 
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
@@ -57,9 +55,9 @@ def main(argv=None) -> int:
               f"({second.descriptor} + {second.classifier})", flush=True)
     else:
         train = R.training_records(cache, "full", default_meta()["training"])
-        second = SecondOpinion.fit(train, [str(r.shape) for r in train], SECOND_DESCRIPTOR)
-        print(f"second opinion: {SECOND_DESCRIPTOR} + svm on the default's {len(train)} "
-              f"training rows ({time.perf_counter() - start:.0f} s)", flush=True)
+        second = SecondOpinion.fit(train, [str(r.shape) for r in train])
+        print(f"second opinion: {second.descriptor} + {second.classifier} on the default's "
+              f"{len(train)} training rows ({time.perf_counter() - start:.0f} s)", flush=True)
     ways = ("shape fit", "second svm")
     totals = {k: [0, 0] for k in ways}  # wrong flagged, right flagged
     met = {k: 0 for k in ways}

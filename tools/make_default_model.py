@@ -85,8 +85,7 @@ def main() -> None:
     records = R.training_records(cache, scale, best["training"], int(doc["config"]["seed"]))
     row = next(r for r in doc["rows"] if r["method"] == best["method"]
                and r["training"] == best["training"])  # fmt: skip
-    commit = subprocess.run(["git", "-C", str(ROOT), "rev-parse", "--short", "HEAD"],
-                            capture_output=True, text=True).stdout.strip()  # fmt: skip
+    commit = _commit()
     info = {"default": {"method": best["method"], "training": best["training"]}}
     model = R.fit_model(best["descriptor"], best["params"], best["classifier"], records, info)
     model.second = SecondOpinion.fit(records, [str(r.shape) for r in records])

@@ -199,7 +199,7 @@ class RobustCoupledJointsDescriptor(_OnZeroedRecords):
     J0 = J1 + J2 (LF J5 first), each joint's open-hand reading subtracted and its plateau
     averaged. Neither a calibration bias nor the tendon's split of J0 reaches it, and it reads
     the hand through other features than the finger points: a second opinion whose mistakes
-    are not the default's (``learn/doubt.SECOND_OPINION``)."""
+    are not the default's (``learn/second_opinion.py``)."""
 
     reference: int = REFERENCE_SAMPLES
     tail: int = TAIL_SAMPLES

@@ -8,6 +8,7 @@ import pytest
 
 from tactile_bullet.experiments import workflow
 from tactile_bullet.learn import doubt
+from tactile_bullet.learn.fit_margins import stratified_sample
 from tactile_bullet.learn.models import load_model, save_model
 
 
@@ -215,7 +216,7 @@ def test_the_training_free_shape_fit_calibrates_its_margin_on_a_sample_of_each_s
     assert cal["held_out"] == 20 and cal["sampled_from"] == len(train)
     assert cal["right_flagged"] <= doubt.FALSE_ALARM + 1e-9
     # drawn in proportion: each of the five shapes 4 times
-    keep = doubt._stratified_sample(np.array([r.shape for r in train]), 20, 0, None)
+    keep = stratified_sample(np.array([r.shape for r in train]), 20, 0, None)
     assert sorted(np.unique([train[i].shape for i in keep], return_counts=True)[1]) == [4] * 5
     # a model that learns from its grasps (svm) is still calibrated on all of them
     svm = workflow.train(train, "signature", "svm")
@@ -226,7 +227,7 @@ def test_the_training_free_shape_fit_calibrates_its_margin_on_a_sample_of_each_s
 def test_the_sample_keeps_the_noisy_copies_of_a_grasp_together():
     shapes = np.array(["cone", "sphere", "torus"] * 10)
     y, groups = np.repeat(shapes, 4), np.repeat(np.arange(30), 4)  # 4 copies of 30 grasps
-    keep = doubt._stratified_sample(y, 48, 0, groups)
+    keep = stratified_sample(y, 48, 0, groups)
     chosen, copies = np.unique(groups[keep], return_counts=True)
     assert len(chosen) == 12 and set(copies) == {4}
     assert sorted(np.unique(shapes[chosen], return_counts=True)[1]) == [4, 4, 4]

@@ -208,31 +208,15 @@ def flag_shares(is_flagged: np.ndarray, correct: np.ndarray) -> dict[str, float 
     }
 
 
-def _stratified_sample(
-    y: np.ndarray, n: int, seed: int, groups: np.ndarray | None = None
-) -> np.ndarray:
-    """Sorted indices of about ``n`` rows of ``y``, each label in proportion (at least 2 of
-    each, so that every shape can still be held out); ``groups``: copies of one grasp are
-    drawn, or left, together."""
-    from sklearn.model_selection import train_test_split
-
-    ids = np.arange(len(y)) if groups is None else np.asarray(groups)
-    first = np.unique(ids, return_index=True)[1]  # one row per grasp
-    labels, counts = np.unique(y[first], return_counts=True)
-    want = int(round(n * len(first) / len(y)))
-    if want >= len(first) or want < 2 * len(labels) or counts.min() < 2:
-        return np.arange(len(y))
-    chosen, _ = train_test_split(first, train_size=want, stratify=y[first], random_state=seed)
-    return np.flatnonzero(np.isin(ids, ids[chosen]))
-
-
 def held_out_margins(
     make: Callable[[], Any], x: np.ndarray, y: np.ndarray, folds: int = FOLDS, seed: int = 0,
-    groups: np.ndarray | None = None,
+    groups: np.ndarray | None = None, false_alarm: float | None = None,
 ) -> tuple[np.ndarray, np.ndarray] | str:
     """(margins, correct) of every row predicted by a fresh estimator (``make()``) fitted on the
     other folds, or the reason none can be had (too few grasps of a shape). ``groups``: rows
-    that are copies of one grasp (noise-aware training) are held out together."""
+    that are copies of one grasp (noise-aware training) are held out together. With the
+    ``false_alarm`` share the threshold is for, the shape fit's margins far above it are read
+    from its grid (:mod:`.fit_margins`)."""
     from sklearn.model_selection import StratifiedKFold
 
     from .novelty import group_split
@@ -249,13 +233,18 @@ def held_out_margins(
         parts = list(StratifiedKFold(n_splits=k, shuffle=True, random_state=seed).split(x, y))
     k = len(parts)
     from ..console import tick
+    from .fit_margins import is_training_free, read_folds
 
+    fits = []  # the shape fit's folds, read together after the loop
     for fold, (train_idx, test_idx) in enumerate(parts):
         tick("doubt calibration folds", fold, k)
         if len(np.unique(y[train_idx])) < 2:
             return "a fold holds a single shape"
         try:
             est = make().fit(x[train_idx], y[train_idx])
+            if false_alarm is not None and is_training_free(est):
+                fits.append((est, test_idx))
+                continue
             names = np.asarray(est.predict(x[test_idx])).astype(str)
             proba = np.asarray(est.predict_proba(x[test_idx]), dtype=float)
         except (ValueError, AttributeError, NotImplementedError) as exc:
@@ -265,6 +254,8 @@ def held_out_margins(
         decided = np.array([classes.index(n) for n in names])
         out_margin[test_idx] = margins(proba, decided)[0]
         out_right[test_idx] = names == y[test_idx]
+    if fits:
+        return read_folds(fits, x, y, lambda right: threshold_for(right, false_alarm))
     return out_margin, out_right
 
 
@@ -289,12 +280,14 @@ def calibrate_margin(
     doc: dict[str, Any] = {"false_alarm": float(false_alarm), "folds": int(folds),
                            "cross_check": None}  # fmt: skip
     if classifier == CROSS_CHECK and len(y) > TRAINING_FREE_SAMPLES:
-        keep = _stratified_sample(np.asarray(y).astype(str), TRAINING_FREE_SAMPLES, seed, groups)
+        from .fit_margins import stratified_sample
+
+        keep = stratified_sample(np.asarray(y).astype(str), TRAINING_FREE_SAMPLES, seed, groups)
         doc["sampled_from"] = int(len(y))
         x, y = np.asarray(x)[keep], np.asarray(y)[keep]
         records = None if records is None else [records[i] for i in keep]
         groups = None if groups is None else np.asarray(groups)[keep]
-    found = held_out_margins(make, x, y, folds, seed, groups)
+    found = held_out_margins(make, x, y, folds, seed, groups, false_alarm)
     if isinstance(found, str):
         return {**doc, "margin": None, "reason": found}
     m, right = found

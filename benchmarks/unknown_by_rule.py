@@ -19,6 +19,10 @@ contact points: the seventh replicate's comparison of 10 against 7.
 its contacts reject stays a sphere, ``unknown``, instead of the torus that fits them): the
 change's own judgement compares a run with it and one without.
 
+``--no-axis-torus`` scores them as they were before the eighteenth replicate's change (a
+sphere the *axis* rule rejects stays a sphere, unknown, instead of the torus that fits it:
+``contact_check.TORUS_FOR_AXIS_REJECTED``), for that change's judgement.
+
 ``--sensor`` also reads each out-of-family set through the ``noise`` column's sensor model (1
 deg joint noise, 3 deg calibration bias; contacts moved with their links): what a hand whose
 contacts come through its joint sensors would get (docs/robustness.md, the sixth replicate).
@@ -76,12 +80,14 @@ def main(argv=None) -> int:
                     help="also read the out-of-family sets through the noise column's sensors")
     ap.add_argument("--no-torus", action="store_true",
                     help="without the ninth replicate's torus-for-sphere renaming")
+    ap.add_argument("--no-axis-torus", action="store_true",
+                    help="without the eighteenth replicate's renaming of axis-rejected spheres")
     args = ap.parse_args(argv)
     provenance(argv)
-    if args.no_torus:
-        from tactile_bullet.perception import contact_check
+    from tactile_bullet.perception import contact_check
 
-        contact_check.TORUS_FOR_SPHERE = False
+    contact_check.TORUS_FOR_SPHERE = not args.no_torus
+    contact_check.TORUS_FOR_AXIS_REJECTED = not args.no_axis_torus
     model = resolve_model(args.model)
     if args.data:
         _breakdown("data " + args.data, model, read_records(args.data).records)

@@ -316,3 +316,26 @@ def test_a_noise_aware_training_presents_each_record_through_joint_noise_too():
              for n, p in zip(noisy[len(plain):2 * len(plain)], plain, strict=True)]  # fmt: skip
     assert 0 < float(np.median(moved)) < np.radians(5)
     assert "noise" in R.seen_columns(R.Candidate("signature", "svm"), "both+posed-noise-aware")
+
+
+def test_the_shipped_defaults_row_is_seconded_by_its_own_second_svm(monkeypatch):
+    """The matrix scores the shipped default's doubt as its answers carry it (its second svm
+    seconds each answer), every other row's with the shape fit, as a model users train."""
+    from tactile_bullet.learn.default import default_meta
+    from tactile_bullet.learn.second_opinion import SecondOpinion
+    from tests.conftest import make_records
+
+    meta = default_meta()
+    names = set(R.TRAININGS[meta["training"]]) | set(R.TRAININGS["bullet"])
+    sets = {n: make_records(per_shape=4, seed=k) for k, n in enumerate(sorted(names))}
+    sets["sizes"] = make_records(per_shape=4, seed=9)
+    cand = R.Candidate(meta["descriptor"], meta["classifier"], (meta["training"], "bullet"))
+    assert R.shipped_second(cand, meta["training"]) == meta["second_opinion"]
+    assert R.shipped_second(cand, "bullet") is None
+    # a second opinion that names every grasp a cone flags every answer that is not a cone
+    monkeypatch.setattr(SecondOpinion, "names", lambda self, records: ["cone"] * len(records))
+    shipped, other = R.score_matrix(sets, [cand])
+    assert shipped["second_opinion"] == "robust-coupled-joints + svm"
+    assert other["second_opinion"] == "shape-fit"
+    assert shipped["columns"]["sizes"]["right_flagged"] >= 0.75  # 4 of the 5 shapes
+    assert other["columns"]["sizes"]["right_flagged"] < 0.75

@@ -165,6 +165,24 @@ def _shape_fit_accepts(records, cache: dict[int, tuple], classes) -> list[tuple[
     return [cache[id(r)] for r in records]
 
 
+def shipped_second(cand: Candidate, training: str) -> dict[str, str] | None:
+    """The second opinion (``{"descriptor", "classifier"}``) of the shipped default where
+    ``cand`` on ``training`` is the shipped default's method, else None: that row's doubt is then
+    seconded as the shipped default's answers are (``learn/second_opinion.py``), every other row's
+    by the shape fit, as a model users train is."""
+    from ..learn.default import default_meta
+
+    try:
+        meta = default_meta()
+    except UsageError:
+        return None
+    second = meta.get("second_opinion")
+    same = (cand.descriptor, dict(cand.params), cand.classifier, training) == \
+        (meta.get("descriptor"), meta.get("params") or {}, meta.get("classifier"),
+         meta.get("training"))  # fmt: skip
+    return dict(second) if same and isinstance(second, dict) else None
+
+
 def score_matrix(
     sets: Mapping[str, list[GraspRecord]],
     candidates: Sequence[Candidate],
@@ -200,6 +218,13 @@ def score_matrix(
         x = np.asarray(desc.transform(train), float)
         fitted = _fit(cand, x, y, train, seed, fit_cache, axis_cache)
         classes = [str(c) for c in fitted.estimator.classes_]
+        second = shipped_second(cand, training)
+        if second is not None:  # the shipped default's row: its own second svm seconds it
+            from ..learn.second_opinion import SecondOpinion
+
+            second = SecondOpinion.fit(train, y, second["descriptor"], second["classifier"])
+        row["second_opinion"] = "shape-fit" if second is None else \
+            f"{second.descriptor} + {second.classifier}"  # fmt: skip
         for col, name in [*((c, c.name) for c in columns), *((None, n) for n in oof)]:
             records = tests[name] if col else oof[name]
             reason = _cannot_read(cand, records)
@@ -216,7 +241,9 @@ def score_matrix(
             proba = np.asarray(fitted.estimator.predict_proba(xt), float)
             m = margins(proba, np.array([classes.index(p) for p in pred]))[0]
             flags = flagged(m, fitted.calibration.get("margin"))
-            if fitted.calibration.get("cross_check") is not None:
+            if second is not None:
+                flags |= np.array(second.names(records)).astype(str) != pred
+            elif fitted.calibration.get("cross_check") is not None:
                 flags |= cross_flags(pred, _shape_fit_accepts(records, fit_cache, classes))
             unknown = fitted.novelty.unknown(xt) if fitted.novelty is not None else \
                 np.zeros(len(xt), bool)  # fmt: skip

@@ -339,3 +339,22 @@ def test_the_shipped_defaults_row_is_seconded_by_its_own_second_svm(monkeypatch)
     assert other["second_opinion"] == "shape-fit"
     assert shipped["columns"]["sizes"]["right_flagged"] >= 0.75  # 4 of the 5 shapes
     assert other["columns"]["sizes"]["right_flagged"] < 0.75
+
+
+def test_an_answer_its_contacts_renamed_counts_as_ambiguous_in_the_matrix(monkeypatch):
+    """The answers say so (``renamed_from``): the matrix's doubt figures count it flagged."""
+    from tactile_bullet.learn import doubt
+    from tactile_bullet.perception.contact_check import ContactCheck
+    from tests.conftest import make_records
+
+    sets = {n: make_records(per_shape=4, seed=k) for k, n in enumerate(R.TRAININGS["bullet"])}
+    sets["sizes"] = make_records(per_shape=4, seed=9)
+    monkeypatch.setattr(doubt, "cross_flags", lambda pred, accepted: np.zeros(len(pred), bool))
+    monkeypatch.setattr(ContactCheck, "fit", classmethod(lambda cls, *a, **k: cls({})))
+    monkeypatch.setattr(ContactCheck, "contact_names", lambda self, records, names, *a:
+                        ["torus" if n == "cone" else None for n in names])  # fmt: skip
+    [row] = R.score_matrix(sets, [R.Candidate("signature", "svm", ("bullet",))])
+    cell = row["columns"]["sizes"]
+    wrong = round(cell["n"] * (1 - cell["accuracy"]))
+    assert wrong >= 4  # the four cones (the svm names them), renamed torus
+    assert round(cell["wrong_flagged"] * wrong) >= 4

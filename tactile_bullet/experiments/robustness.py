@@ -233,6 +233,7 @@ def score_matrix(
                 continue
             xt = np.asarray(desc.transform(records), float)
             pred = np.asarray(fitted.estimator.predict(xt)).astype(str)
+            was = pred
             if fitted.axis is not None:  # a torus read as a sphere, named by its contacts
                 pred = renamed(pred, fitted.axis.contact_names(
                     records, pred, lambda recs: _residuals(recs, axis_cache),
@@ -240,7 +241,8 @@ def score_matrix(
                     lambda recs: _tori(recs, axis_cache)))  # fmt: skip
             proba = np.asarray(fitted.estimator.predict_proba(xt), float)
             m = margins(proba, np.array([classes.index(p) for p in pred]))[0]
-            flags = flagged(m, fitted.calibration.get("margin"))
+            # an answer its contacts renamed is ambiguous, as the answers say (learn/doubt.py)
+            flags = flagged(m, fitted.calibration.get("margin")) | (pred != was)
             if second is not None:
                 flags |= np.array(second.names(records)).astype(str) != pred
             elif fitted.calibration.get("cross_check") is not None:

@@ -37,7 +37,7 @@ TORUS_FOR_AXIS_REJECTED = True
 """Whether that renaming also reads a sphere the *axis* rule rejects (its normals pass the
 torus's looser axis threshold, not the sphere's): MuJoCo's torus is 24 convex pieces, whose flat
 faces tilt the normals past the 1 mm a MuJoCo sphere, exact, is allowed. Declared before the
-eighteenth replicate (docs/robustness.md); False: the answers before it."""
+eighteenth replicate and kept on it (docs/robustness.md); False: the answers before it."""
 
 PROFILE_RATE = 0.01
 """Share of a family's training grasps (per engine) whose profile residual may exceed its

@@ -71,7 +71,7 @@ NEEDS: dict[str, str] = {
     "second_opinion": "a full-scale robustness matrix's cache (--cache DIR/data, "
     "--replicate K); a few minutes",
     "out_of_family_mujoco": "a full-scale robustness matrix's cache (--cache DIR/data, "
-    "--replicate K); simulates its two out-of-family sets in MuJoCo (minutes)",
+    "--replicate K); simulates its two out-of-family sets in MuJoCo (about a minute)",
     "shape_fit_equivalence": "git (it loads the shape fit of --ref, default adcd9c0, beside this "
     "one); --data DIR adds a simulated set (e.g. generate --preset thesis), minutes",
     "closure_by_hand": "a full-scale robustness matrix's cache (`tactile-bullet benchmark "

@@ -18,12 +18,10 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
-from collections import defaultdict
 from pathlib import Path
 
-import numpy as np
 from _report import matrix_set, provenance  # first: this checkout ahead of an installed copy
-from unknown_by_rule import _answers, _shares
+from unknown_by_rule import by_object
 
 from tactile_bullet.experiments.benchmark import load_set, simulate_sets
 from tactile_bullet.experiments.robustness_sets import (
@@ -57,14 +55,7 @@ def main(argv=None) -> int:
     for name, twin in zip(OUT_OF_FAMILY_SETS, twins, strict=True):
         for engine, records in (("bullet", matrix_set(cache, name, args.replicate)),
                                 ("mujoco", load_set(cache / twin.name)[0])):  # fmt: skip
-            _, rules, _ = _answers(model, records)
-            per: dict[str, list] = defaultdict(list)
-            for r, rule in zip(records, rules, strict=True):
-                per[(r.mesh or {}).get("name") or r.shape].append(rule)
-            print(f"{name} ({engine}): {_shares(rules)}")
-            order = sorted(per, key=lambda k: -np.mean([x is not None for x in per[k]]))
-            print("  " + ", ".join(f"{k} {sum(x is not None for x in per[k])}/{len(per[k])}"
-                                   for k in order))  # fmt: skip
+            by_object(f"{name} ({engine})", model, records)
     return 0
 
 

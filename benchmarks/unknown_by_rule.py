@@ -105,19 +105,24 @@ def main(argv=None) -> int:
         if args.sensor:
             readings.append((" through the sensor model", perturb_all(simulated, NOISE, args.seed)))
         for how, records in readings:
-            _, rules, _ = _answers(model, records)
-            per: dict[str, list] = defaultdict(list)
-            for r, rule in zip(records, rules, strict=True):
-                per[(r.mesh or {}).get("name") or r.shape].append(rule)
-            print(f"{name}{how}: {_shares(rules)}")
-            order = sorted(per, key=lambda k: -np.mean([x is not None for x in per[k]]))
-            print("  " + ", ".join(f"{k} {sum(x is not None for x in per[k])}/{len(per[k])}"
-                                   for k in order))  # fmt: skip
+            by_object(f"{name}{how}", model, records)
     table = {c.name: c for c in COLUMNS}
     for name in args.columns.split(","):
         records = matrix_column(cache, table[name], args.replicate, args.seed)
         _breakdown(f"column {name}", model, records)
     return 0
+
+
+def by_object(title: str, model, records) -> None:
+    """An out-of-family set's share answered unknown, by rule, then object by object."""
+    _, rules, _ = _answers(model, records)
+    per: dict[str, list] = defaultdict(list)
+    for r, rule in zip(records, rules, strict=True):
+        per[(r.mesh or {}).get("name") or r.shape].append(rule)
+    print(f"{title}: {_shares(rules)}")
+    order = sorted(per, key=lambda k: -np.mean([x is not None for x in per[k]]))
+    print("  " + ", ".join(f"{k} {sum(x is not None for x in per[k])}/{len(per[k])}"
+                           for k in order))  # fmt: skip
 
 
 def _refitted(model, cache: Path, min_points: int, training: str | None):

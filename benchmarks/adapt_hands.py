@@ -42,7 +42,10 @@ def main() -> None:
     cache = Path(args.cache)
     for hand in args.hands.split(","):
         suffix = f"-r{args.replicate}" if args.replicate else ""
-        folder = next(cache.glob(f"*-{hand}{suffix}"))
+        folder = next(cache.glob(f"*-{hand}{suffix}"), None)
+        if folder is None:
+            raise SystemExit(f"no {hand} set '*-{hand}{suffix}' in {cache}: give the matrix "
+                             "run's --replicate, and --other-hand when it was run")  # fmt: skip
         print(f"{hand}: {folder.name}", flush=True)
         grasps = R.replayed(load_set(folder)[0])
         labels = np.array([r.shape for r in grasps])

@@ -286,13 +286,11 @@ def _answer_chunk(model, records: Sequence[GraspRecord]) -> tuple[list, list, li
     from ..learn.doubt import doubts
 
     features = model.features(records)
-    shapes = np.asarray(model.estimator.predict(features)).astype(str)
-    classes = [str(c) for c in model.classes]
-    try:
-        proba = np.asarray(model.estimator.predict_proba(features), dtype=float)
-    except (AttributeError, NotImplementedError):
+    shapes, proba, was = model.answers(records, features)
+    if proba is None:  # a classifier without probabilities: its answer, certain
+        classes = [str(c) for c in model.classes]
         proba = np.array([[float(c == s) for c in classes] for s in shapes])
-    found = doubts(model, records, shapes, proba, features=features)
+    found = doubts(model, records, shapes, proba, features=features, renamed_from=was)
     return list(shapes), list(proba), found
 
 

@@ -66,6 +66,13 @@ def _check_count(value, what: str) -> int:
     return int(value)
 
 
+def has_series(record, reference: int = REFERENCE_SAMPLES, tail: int = TAIL_SAMPLES) -> bool:
+    """Whether ``record`` carries the time series :func:`zeroed` needs (a recording of final
+    configurations only, or records read without their series, do not)."""
+    angles = np.asarray(record.angles)
+    return angles.ndim == 2 and len(angles) >= reference + tail
+
+
 def zeroed(
     record: GraspRecord, reference: int = REFERENCE_SAMPLES, tail: int = TAIL_SAMPLES
 ) -> GraspRecord:
@@ -74,7 +81,7 @@ def zeroed(
     reference = _check_count(reference, "reference samples")
     tail = _check_count(tail, "tail samples")
     angles = np.asarray(record.angles, dtype=float)
-    if angles.ndim != 2 or len(angles) < reference + tail:
+    if not has_series(record, reference, tail):
         raise UsageError(
             f"zeroing needs the grasp's time series (at least {reference + tail} samples, "
             f"got {len(angles)}): load records with their series"

@@ -60,10 +60,12 @@ class SecondOpinion:
         short to zero (a recording of final configurations only, records read without their
         series) is read by :data:`WITHOUT_SERIES`'s descriptor of the same columns, unzeroed."""
         from ..plugins import get_descriptor
+        from .robust import has_series
 
         described = get_descriptor(self.descriptor, **dict(self.params))
-        need = getattr(described, "reference", 0) + getattr(described, "tail", 0)
-        short = [np.asarray(r.angles).ndim != 2 or len(r.angles) < need for r in records]
+        zeroing = hasattr(described, "reference")  # a descriptor on zeroed records
+        short = [zeroing and not has_series(r, described.reference, described.tail)
+                 for r in records]  # fmt: skip
         x = np.empty((len(records), len(described.feature_names())))
         full = [i for i, s in enumerate(short) if not s]
         if full:

@@ -165,17 +165,24 @@ def _shape_fit_accepts(records, cache: dict[int, tuple], classes) -> list[tuple[
     return [cache[id(r)] for r in records]
 
 
-def shipped_second(cand: Candidate, training: str) -> dict[str, str] | None:
-    """The second opinion (``{"descriptor", "classifier"}``) of the shipped default where
-    ``cand`` on ``training`` is the shipped default's method, else None: that row's doubt is then
-    seconded as the shipped default's answers are (``learn/second_opinion.py``), every other row's
-    by the shape fit, as a model users train is."""
+def _default_meta() -> dict[str, Any]:
+    """The shipped default's description, {} where it cannot be read."""
     from ..learn.default import default_meta
 
     try:
-        meta = default_meta()
+        return default_meta()
     except UsageError:
-        return None
+        return {}
+
+
+def shipped_second(cand: Candidate, training: str,
+                   meta: Mapping[str, Any] | None = None) -> dict[str, str] | None:  # fmt: skip
+    """The second opinion (``{"descriptor", "classifier"}``) of the shipped default where
+    ``cand`` on ``training`` is the shipped default's method (``meta``: its description, read
+    here when not given), else None: that row's doubt is then seconded as the shipped default's
+    answers are (``learn/second_opinion.py``), every other row's by the shape fit, as a model
+    users train is."""
+    meta = _default_meta() if meta is None else meta
     second = meta.get("second_opinion")
     same = (cand.descriptor, dict(cand.params), cand.classifier, training) == \
         (meta.get("descriptor"), meta.get("params") or {}, meta.get("classifier"),
@@ -203,6 +210,7 @@ def score_matrix(
     fit_cache: dict[int, str] = {}
     axis_cache: dict = {}  # contacts residuals: axis by array id, profile by (id, family)
     rows = []
+    meta = _default_meta()  # which row is the shipped default's, read once
     runs = [(c, t) for c in candidates for t in c.trainings]
     for i, (cand, training) in enumerate(runs, 1):
         started = time.perf_counter()
@@ -218,7 +226,7 @@ def score_matrix(
         x = np.asarray(desc.transform(train), float)
         fitted = _fit(cand, x, y, train, seed, fit_cache, axis_cache)
         classes = [str(c) for c in fitted.estimator.classes_]
-        second = shipped_second(cand, training)
+        second = shipped_second(cand, training, meta)
         if second is not None:  # the shipped default's row: its own second svm seconds it
             from ..learn.second_opinion import SecondOpinion
 
